@@ -1,0 +1,121 @@
+//! The DEM backend trait: what the coupling driver asks of any discrete-element engine.
+//!
+//! The built-in DEM implements it directly; external engines (LIGGGHTS, YADE) implement it
+//! through the versioned C ABI in `bindings/include/plugflow_dem.h`. The calls mirror that
+//! ABI one to one so that a backend behind the ABI and one in-process behave the same.
+
+use crate::{Real, Vec3};
+
+/// Borrowed, structure-of-arrays view of the grains (no copy for the native engine).
+///
+/// All slices have the same length, the number of grains currently in the domain.
+#[derive(Debug, Clone, Copy)]
+pub struct ParticleView<'a> {
+    /// Stable particle identifiers (never reused within a run).
+    pub id: &'a [u64],
+    /// Centre positions, m.
+    pub position: &'a [Vec3],
+    /// Translational velocities, m/s.
+    pub velocity: &'a [Vec3],
+    /// Angular velocities, rad/s (all zero when the scene switches rotation off).
+    pub angular_velocity: &'a [Vec3],
+    /// Radii, m.
+    pub radius: &'a [Real],
+    /// Masses, kg.
+    pub mass: &'a [Real],
+}
+
+impl ParticleView<'_> {
+    /// Number of grains in the view.
+    pub fn len(&self) -> usize {
+        self.id.len()
+    }
+
+    /// True when no grain is in the domain.
+    pub fn is_empty(&self) -> bool {
+        self.id.is_empty()
+    }
+}
+
+/// A grain to be inserted by the coupling layer (the engine assigns its id).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct NewParticle {
+    /// Centre position, m.
+    pub position: Vec3,
+    /// Velocity, m/s.
+    pub velocity: Vec3,
+    /// Radius, m.
+    pub radius: Real,
+    /// Material density, kg/m³.
+    pub density: Real,
+}
+
+/// Implicit drag: F_i = β_i (u_f,i − v_i) evaluated by the engine at every DEM step, so
+/// the stiff drag inside a dense plug does not restrict the coupling interval.
+#[derive(Debug, Clone, Copy)]
+pub struct ImplicitDrag<'a> {
+    /// Drag coefficient β_i per grain, kg/s.
+    pub coefficient: &'a [Real],
+    /// Fluid velocity at each grain, m/s.
+    pub fluid_velocity: &'a [Vec3],
+}
+
+/// Net force the grains exert on one wall, N.
+#[derive(Debug, Clone, PartialEq)]
+pub struct WallForce {
+    /// Name of the wall ("tube", "inlet_cap", a plane's name, ...).
+    pub wall: String,
+    /// Force on the wall, N.
+    pub force: Vec3,
+}
+
+/// Errors a backend reports to the driver; each names where it happened.
+#[derive(Debug, thiserror::Error)]
+pub enum BackendError {
+    /// A grain's state became NaN or infinite.
+    #[error("non-finite state at step {step}: particle id {particle_id} ({what})")]
+    NonFinite {
+        step: u64,
+        particle_id: u64,
+        what: String,
+    },
+    /// An argument does not fit the engine's state (wrong length, bad value).
+    #[error("invalid argument `{argument}`: {reason}")]
+    InvalidArgument { argument: String, reason: String },
+    /// The engine itself failed (external engines: their message).
+    #[error("engine `{engine}` failed: {message}")]
+    Engine { engine: String, message: String },
+}
+
+/// A discrete-element engine the co-simulation can drive.
+pub trait DemBackend {
+    /// Engine name as a scene names it ("native", "liggghts", "yade").
+    fn engine_name(&self) -> &str;
+    /// Engine version string for the run summary.
+    fn engine_version(&self) -> String;
+    /// DEM time step, s.
+    fn time_step(&self) -> Real;
+    /// Simulated time, s.
+    fn time(&self) -> Real;
+    /// Steps taken so far.
+    fn step_count(&self) -> u64;
+    /// Advance `steps` DEM steps with the fluid forces held as last set.
+    fn advance(&mut self, steps: u64) -> Result<(), BackendError>;
+    /// Borrow the grains.
+    fn particles(&self) -> ParticleView<'_>;
+    /// Set the per-grain fluid force (N), in the order of [`DemBackend::particles`];
+    /// optionally an implicit drag coefficient and fluid velocity.
+    fn set_fluid_forces(
+        &mut self,
+        force: &[Vec3],
+        implicit: Option<ImplicitDrag<'_>>,
+    ) -> Result<(), BackendError>;
+    /// Insert grains; returns the ids given to them.
+    fn insert(&mut self, particles: &[NewParticle]) -> Result<Vec<u64>, BackendError>;
+    /// Remove grains past the outlet; returns the removed mass, kg.
+    fn remove_past_outlet(&mut self) -> Result<Real, BackendError>;
+    /// Forces on the walls, N.
+    fn wall_forces(&self) -> Vec<WallForce>;
+    /// Wall-clock seconds spent in each named stage so far.
+    fn stage_times(&self) -> Vec<(String, f64)>;
+}

@@ -1,0 +1,18 @@
+//! `plugflow-coupling`: the seams of the co-simulation.
+//!
+//! This crate owns the interfaces every engine and solver plugs into and nothing engine
+//! specific: the [`DemBackend`] trait that the built-in DEM (and, through the C ABI, LIGGGHTS
+//! and YADE) implements, the borrowed [`ParticleView`] the coupling reads grains through, and
+//! the [`StageTimer`] that times each named stage of a step (shared/DESIGN.md, "The step").
+
+pub mod backend;
+pub mod timing;
+
+pub use backend::{BackendError, DemBackend, ImplicitDrag, NewParticle, ParticleView, WallForce};
+pub use timing::StageTimer;
+
+/// The one floating-point type of the project (SI units throughout).
+pub type Real = f64;
+
+/// A 3-vector in SI units; plain arrays keep the state containers `Copy` and FFI friendly.
+pub type Vec3 = [Real; 3];

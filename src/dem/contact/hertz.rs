@@ -1,0 +1,61 @@
+//! Hertz normal law with Tsuji damping (seed 004 eqs. 5–9) and the Mindlin tangential
+//! stiffness (eq. 8):
+//!   F_n = K_n δ^{3/2} + α sqrt(m K_n) δ^{1/4} v_n,  K_n = 4/3 Y* sqrt(r*),
+//!   k_t = 8 G* sqrt(r* δ),
+//! with α chosen so the restitution is exactly e ([`super::tsuji_alpha`]), rather than the
+//! approximate closed form LIGGGHTS uses. Tangential damping uses the same prefactor on
+//! sqrt(m k_t) as the normal one does on sqrt(m dF_n/dδ).
+
+use super::{NormalLaw, NormalOut};
+use crate::Real;
+
+/// Hertz law parameters for one kind of pair.
+#[derive(Debug, Clone)]
+pub struct Hertz {
+    /// Effective modulus Y* = 1/((1−ν₁²)/E₁ + (1−ν₂²)/E₂), Pa.
+    pub y_star: Real,
+    /// Effective shear modulus G* = 1/((2−ν₁)/G₁ + (2−ν₂)/G₂), Pa.
+    pub g_star: Real,
+    /// Tsuji damping constant α.
+    pub alpha: Real,
+}
+
+impl Hertz {
+    /// Law for two bodies of one material (a wall counts as a body of the grains'
+    /// material, as LIGGGHTS' walls do; its infinite mass and radius enter via m*, r*).
+    pub fn new(youngs: Real, poisson: Real, e: Real) -> Self {
+        let shear = youngs / (2.0 * (1.0 + poisson));
+        let one_y = (1.0 - poisson * poisson) / youngs;
+        let one_g = (2.0 - poisson) / shear;
+        Self {
+            y_star: 1.0 / (2.0 * one_y),
+            g_star: 1.0 / (2.0 * one_g),
+            alpha: super::tsuji_alpha(e),
+        }
+    }
+}
+
+impl NormalLaw for Hertz {
+    #[inline(always)]
+    fn evaluate(&self, m_eff: Real, r_eff: Real, overlap: Real, vn: Real) -> NormalOut {
+        let sqrt_rd = (r_eff * overlap).sqrt();
+        // F = 4/3 Y* sqrt(r* δ) δ;  dF/dδ = 2 Y* sqrt(r* δ).
+        let kn_tangent = 2.0 * self.y_star * sqrt_rd;
+        let kt = 8.0 * self.g_star * sqrt_rd;
+        // α sqrt(m K_n) δ^{1/4} = α/sqrt(1.5) · sqrt(m dF/dδ).
+        let c = self.alpha * (2.0_f64 / 3.0).sqrt();
+        let gamma_n = c * (m_eff * kn_tangent).sqrt();
+        let gamma_t = c * (m_eff * kt).sqrt();
+        NormalOut {
+            force: (4.0 / 3.0) * self.y_star * sqrt_rd * overlap + gamma_n * vn,
+            kt,
+            gamma_n,
+            gamma_t,
+        }
+    }
+
+    fn contact_time(&self, m_eff: Real, r_eff: Real, v: Real) -> Real {
+        // Elastic Hertz collision time 2.868 (m*² / (r* Y*² v))^{1/5}.
+        2.868 * (m_eff * m_eff / (r_eff * self.y_star * self.y_star * v)).powf(0.2)
+    }
+}

@@ -1,0 +1,128 @@
+//! Contact laws. Each law is one file implementing one trait; the force loop is generic over
+//! the pair (normal law, tangential law) so the chosen laws are inlined into it.
+//!
+//! Sign conventions: `n` is the unit vector from grain i to its partner (grain j or the
+//! wall), `overlap` δ > 0 in contact, `vn` = (v_i − v_j)·n > 0 while approaching.
+
+pub mod coulomb_viscous;
+pub mod hertz;
+pub mod history;
+pub mod hooke;
+
+pub use coulomb_viscous::CoulombViscous;
+pub use hertz::Hertz;
+pub use history::History;
+pub use hooke::Hooke;
+
+use crate::{Real, Vec3};
+
+/// What the normal law hands to the tangential law.
+#[derive(Debug, Clone, Copy)]
+pub struct NormalOut {
+    /// Normal force magnitude, N, repulsive positive (elastic + viscous; may be negative at
+    /// the end of a damped contact, as in LIGGGHTS' default).
+    pub force: Real,
+    /// Tangential spring stiffness for this overlap, N/m.
+    pub kt: Real,
+    /// Normal damping coefficient for this overlap, kg/s.
+    pub gamma_n: Real,
+    /// Tangential damping coefficient, kg/s.
+    pub gamma_t: Real,
+}
+
+/// A normal force law for one kind of pair (grain–grain or grain–wall).
+pub trait NormalLaw: Clone + Send + Sync {
+    /// Force for overlap δ (m) and approach speed `vn` (m/s) of a pair with effective mass
+    /// `m_eff` (kg) and effective radius `r_eff` (m).
+    fn evaluate(&self, m_eff: Real, r_eff: Real, overlap: Real, vn: Real) -> NormalOut;
+    /// Duration of a collision at impact speed `v` (Hertz depends on it, Hooke does not), s.
+    fn contact_time(&self, m_eff: Real, r_eff: Real, v: Real) -> Real;
+}
+
+/// A tangential force law for one kind of pair.
+pub trait TangentialLaw: Clone + Send + Sync {
+    /// True when the law keeps a per-contact shear displacement.
+    const USES_HISTORY: bool;
+    /// Tangential force on grain i for slip velocity `vt` (m/s, in the tangent plane),
+    /// updating the contact's shear `history` (m) over `dt` (s).
+    fn force(&self, normal: &NormalOut, vt: Vec3, n: Vec3, history: &mut Vec3, dt: Real) -> Vec3;
+}
+
+/// |ln e| / sqrt(π² + ln² e): the damping ratio of a linear spring–dashpot that gives
+/// restitution e (exact for the undamped-cutoff Hooke contact).
+pub fn hooke_damping_ratio(e: Real) -> Real {
+    let l = e.ln().abs();
+    l / (std::f64::consts::PI.powi(2) + l * l).sqrt()
+}
+
+/// Restitution of the Tsuji-damped Hertz oscillator x'' + α x^{1/4} x' + x^{3/2} = 0 with
+/// unit impact speed. It depends on α alone (the model's point: e independent of speed),
+/// so we integrate the dimensionless equation once with RK4 and invert it by bisection.
+pub fn tsuji_restitution(alpha: Real) -> Real {
+    // Dimensionless: m = K = v0 = 1; contact lasts ≈ 3.2 time units.
+    let h = 2e-4;
+    let (mut x, mut v) = (0.0_f64, 1.0_f64);
+    let acc = |x: Real, v: Real| -> Real {
+        let xp = x.max(0.0);
+        -alpha * xp.sqrt().sqrt() * v - xp * xp.sqrt()
+    };
+    let mut t = 0.0;
+    loop {
+        let (k1x, k1v) = (v, acc(x, v));
+        let (k2x, k2v) = (v + 0.5 * h * k1v, acc(x + 0.5 * h * k1x, v + 0.5 * h * k1v));
+        let (k3x, k3v) = (v + 0.5 * h * k2v, acc(x + 0.5 * h * k2x, v + 0.5 * h * k2v));
+        let (k4x, k4v) = (v + h * k3v, acc(x + h * k3x, v + h * k3v));
+        let xn = x + h / 6.0 * (k1x + 2.0 * k2x + 2.0 * k3x + k4x);
+        let vn = v + h / 6.0 * (k1v + 2.0 * k2v + 2.0 * k3v + k4v);
+        t += h;
+        if xn <= 0.0 && t > h {
+            // Interpolate the exit speed linearly to the crossing.
+            let s = x / (x - xn);
+            return -(v + s * (vn - v));
+        }
+        x = xn;
+        v = vn;
+        if t > 100.0 {
+            return 0.0; // over-damped: never leaves
+        }
+    }
+}
+
+/// The Tsuji damping constant α that gives restitution `e` (bisection on
+/// [`tsuji_restitution`], monotone decreasing in α). Exact to 1e-9 in e.
+pub fn tsuji_alpha(e: Real) -> Real {
+    if e >= 1.0 {
+        return 0.0;
+    }
+    let (mut lo, mut hi) = (0.0_f64, 4.0_f64);
+    while tsuji_restitution(hi) > e {
+        hi *= 2.0;
+    }
+    for _ in 0..60 {
+        let mid = 0.5 * (lo + hi);
+        if tsuji_restitution(mid) > e {
+            lo = mid;
+        } else {
+            hi = mid;
+        }
+        if hi - lo < 1e-10 {
+            break;
+        }
+    }
+    0.5 * (lo + hi)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn tsuji_alpha_inverts_restitution() {
+        for e in [0.1, 0.5, 0.8, 0.99] {
+            let a = tsuji_alpha(e);
+            assert!((tsuji_restitution(a) - e).abs() < 1e-6, "e={e} alpha={a}");
+        }
+        // Undamped Hertz returns its impact speed.
+        assert!((tsuji_restitution(0.0) - 1.0).abs() < 1e-6);
+    }
+}

@@ -1,0 +1,228 @@
+//! Cell-list neighbour search with a Verlet skin.
+//!
+//! The half list holds every pair (i, j > i) closer than r_i + r_j + skin; it is rebuilt only
+//! when some grain has moved more than half the skin since the last build (then no pair can
+//! have come into contact unseen). At each build the grains are re-sorted by cell so that
+//! neighbours sit close in memory, and the tangential history of every live contact is
+//! carried over by the grains' stable ids.
+
+use super::state::ParticleState;
+use super::vec3::{norm2, sub};
+use crate::{Real, Vec3};
+
+/// Uniform grid of cells over the simulation box.
+#[derive(Debug, Clone)]
+pub struct CellGrid {
+    lo: Vec3,
+    inv_cell: Real,
+    dims: [usize; 3],
+}
+
+impl CellGrid {
+    /// Grid over the box [lo, hi] with cells at least `cell` wide.
+    pub fn new(lo: Vec3, hi: Vec3, cell: Real) -> Self {
+        let mut dims = [1usize; 3];
+        let mut size = cell;
+        for k in 0..3 {
+            dims[k] = (((hi[k] - lo[k]) / cell).floor() as usize).max(1);
+        }
+        // Cap the cell count for huge, sparse boxes; cells then grow (never shrink).
+        while dims.iter().product::<usize>() > 4_000_000 {
+            size *= 1.26;
+            for k in 0..3 {
+                dims[k] = (((hi[k] - lo[k]) / size).floor() as usize).max(1);
+            }
+        }
+        let width = (0..3)
+            .map(|k| (hi[k] - lo[k]) / dims[k] as Real)
+            .fold(Real::INFINITY, Real::min);
+        Self {
+            lo,
+            inv_cell: 1.0 / width.max(cell),
+            dims,
+        }
+    }
+
+    #[inline]
+    fn coord(&self, x: Vec3) -> [usize; 3] {
+        let mut c = [0usize; 3];
+        for k in 0..3 {
+            let f = ((x[k] - self.lo[k]) * self.inv_cell).floor();
+            // Grains outside the box are clamped into the edge cells (monotone, so close
+            // grains stay in the same or adjacent cells).
+            c[k] = if f <= 0.0 || f.is_nan() {
+                0
+            } else {
+                (f as usize).min(self.dims[k] - 1)
+            };
+        }
+        c
+    }
+
+    #[inline]
+    fn index(&self, c: [usize; 3]) -> usize {
+        (c[2] * self.dims[1] + c[1]) * self.dims[0] + c[0]
+    }
+
+    fn count(&self) -> usize {
+        self.dims.iter().product()
+    }
+}
+
+/// Half neighbour list in compressed rows, with one shear history per pair.
+#[derive(Debug, Clone, Default)]
+pub struct NeighborList {
+    /// Row offsets: partners of grain i are `partner[start[i]..start[i+1]]`.
+    pub start: Vec<u32>,
+    /// Partner indices j > i.
+    pub partner: Vec<u32>,
+    /// Tangential shear displacement of each pair as seen from i, m.
+    pub history: Vec<Vec3>,
+    /// Positions at the last build, m.
+    x_at_build: Vec<Vec3>,
+    /// Scratch: per-cell start offsets.
+    cell_start: Vec<u32>,
+    /// Live histories keyed by (smaller id, larger id), as seen from the smaller id; filled
+    /// by [`NeighborList::stash_history`] before grain indices change.
+    saved: Vec<((u64, u64), Vec3)>,
+    /// The list matches the current grain order.
+    valid: bool,
+    /// Builds so far.
+    pub builds: u64,
+}
+
+impl NeighborList {
+    /// True when a grain moved more than half the skin since the last build.
+    pub fn needs_rebuild(&self, state: &ParticleState, skin: Real) -> bool {
+        if self.x_at_build.len() != state.len() {
+            return true;
+        }
+        let limit2 = 0.25 * skin * skin;
+        state
+            .position
+            .iter()
+            .zip(&self.x_at_build)
+            .any(|(x, x0)| norm2(sub(*x, *x0)) > limit2)
+    }
+
+    /// Sort grains by cell, rebuild the list, and carry the shear history over.
+    pub fn rebuild(
+        &mut self,
+        state: &mut ParticleState,
+        grid: &CellGrid,
+        skin: Real,
+        walls: usize,
+        keep_history: bool,
+    ) {
+        let n = state.len();
+        if keep_history {
+            self.stash_history(state);
+        }
+        // 2. Counting sort of the grains by cell (stable, hence deterministic).
+        let cells: Vec<usize> = state
+            .position
+            .iter()
+            .map(|&x| grid.index(grid.coord(x)))
+            .collect();
+        let nc = grid.count();
+        self.cell_start.clear();
+        self.cell_start.resize(nc + 1, 0);
+        for &c in &cells {
+            self.cell_start[c + 1] += 1;
+        }
+        for c in 0..nc {
+            self.cell_start[c + 1] += self.cell_start[c];
+        }
+        let mut fill = self.cell_start.clone();
+        let mut order = vec![0usize; n];
+        for (i, &c) in cells.iter().enumerate() {
+            order[fill[c] as usize] = i;
+            fill[c] += 1;
+        }
+        state.permute(&order, walls);
+        // 3. Pairs within reach, from the 27 surrounding cells.
+        self.start.clear();
+        self.partner.clear();
+        self.start.push(0);
+        let dims = grid.dims;
+        for i in 0..n {
+            let xi = state.position[i];
+            let ri = state.radius[i];
+            let c = grid.coord(xi);
+            for dz in -1i64..=1 {
+                let z = c[2] as i64 + dz;
+                if z < 0 || z >= dims[2] as i64 {
+                    continue;
+                }
+                for dy in -1i64..=1 {
+                    let y = c[1] as i64 + dy;
+                    if y < 0 || y >= dims[1] as i64 {
+                        continue;
+                    }
+                    let x0 = (c[0] as i64 - 1).max(0) as usize;
+                    let x1 = (c[0] + 1).min(dims[0] - 1);
+                    let row = grid.index([0, y as usize, z as usize]);
+                    let (s, e) = (
+                        self.cell_start[row + x0] as usize,
+                        self.cell_start[row + x1 + 1] as usize,
+                    );
+                    for j in s.max(i + 1)..e {
+                        let reach = ri + state.radius[j] + skin;
+                        if norm2(sub(state.position[j], xi)) < reach * reach {
+                            self.partner.push(j as u32);
+                        }
+                    }
+                }
+            }
+            self.start.push(self.partner.len() as u32);
+        }
+        // 4. Restore histories.
+        self.history.clear();
+        if keep_history {
+            self.history.resize(self.partner.len(), [0.0; 3]);
+            let saved = std::mem::take(&mut self.saved);
+            if !saved.is_empty() {
+                for i in 0..n {
+                    for k in self.start[i] as usize..self.start[i + 1] as usize {
+                        let (a, b) = (state.id[i], state.id[self.partner[k] as usize]);
+                        let key = if a < b { (a, b) } else { (b, a) };
+                        if let Ok(p) = saved.binary_search_by_key(&key, |e| e.0) {
+                            let h = saved[p].1;
+                            self.history[k] = if a < b { h } else { [-h[0], -h[1], -h[2]] };
+                        }
+                    }
+                }
+            }
+        }
+        self.saved.clear();
+        self.valid = true;
+        self.x_at_build.clear();
+        self.x_at_build.extend_from_slice(&state.position);
+        self.builds += 1;
+    }
+
+    /// Save the shear history of every live contact by grain ids. Call before grains are
+    /// added, removed or reordered; the next [`NeighborList::rebuild`] restores it.
+    pub fn stash_history(&mut self, state: &ParticleState) {
+        if !self.valid || self.start.len() != state.len() + 1 || self.history.is_empty() {
+            self.valid = false;
+            return;
+        }
+        let n = state.len();
+        for i in 0..n {
+            for k in self.start[i] as usize..self.start[i + 1] as usize {
+                let h = self.history[k];
+                if h != [0.0; 3] {
+                    let (a, b) = (state.id[i], state.id[self.partner[k] as usize]);
+                    if a < b {
+                        self.saved.push(((a, b), h));
+                    } else {
+                        self.saved.push(((b, a), [-h[0], -h[1], -h[2]]));
+                    }
+                }
+            }
+        }
+        self.saved.sort_unstable_by_key(|e| e.0);
+        self.valid = false;
+    }
+}

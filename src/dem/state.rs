@@ -1,0 +1,89 @@
+//! Grain state in plain structure-of-arrays containers. Steppers take it by `&mut`.
+
+use crate::{Real, Vec3};
+
+/// All per-grain arrays; index `i` is the same grain in every array. The order changes when
+/// the neighbour list re-sorts grains for locality; `id` is the stable name.
+#[derive(Debug, Clone, Default)]
+pub struct ParticleState {
+    /// Stable identifiers.
+    pub id: Vec<u64>,
+    /// Centre positions, m.
+    pub position: Vec<Vec3>,
+    /// Velocities, m/s.
+    pub velocity: Vec<Vec3>,
+    /// Angular velocities, rad/s (stay zero when rotation is off).
+    pub angular_velocity: Vec<Vec3>,
+    /// Total force of the current step, N.
+    pub force: Vec<Vec3>,
+    /// Total torque of the current step, N·m (unused when rotation is off).
+    pub torque: Vec<Vec3>,
+    /// Fluid force written by the coupling, held over a coupling interval, N.
+    pub external_force: Vec<Vec3>,
+    /// Radii, m.
+    pub radius: Vec<Real>,
+    /// Masses, kg.
+    pub mass: Vec<Real>,
+    /// 1 / mass, 1/kg.
+    pub inv_mass: Vec<Real>,
+    /// 1 / moment of inertia (solid sphere, 2/5 m r²), 1/(kg m²).
+    pub inv_inertia: Vec<Real>,
+    /// Tangential history against each wall: `walls` entries per grain, m.
+    pub wall_history: Vec<Vec3>,
+}
+
+impl ParticleState {
+    /// Number of grains.
+    pub fn len(&self) -> usize {
+        self.id.len()
+    }
+
+    /// True when there are no grains.
+    pub fn is_empty(&self) -> bool {
+        self.id.is_empty()
+    }
+
+    /// Append one grain at rest in rotation, with zeroed forces and wall history.
+    pub fn push(&mut self, id: u64, x: Vec3, v: Vec3, radius: Real, density: Real, walls: usize) {
+        let mass = density * 4.0 / 3.0 * std::f64::consts::PI * radius.powi(3);
+        self.id.push(id);
+        self.position.push(x);
+        self.velocity.push(v);
+        self.angular_velocity.push([0.0; 3]);
+        self.force.push([0.0; 3]);
+        self.torque.push([0.0; 3]);
+        self.external_force.push([0.0; 3]);
+        self.radius.push(radius);
+        self.mass.push(mass);
+        self.inv_mass.push(1.0 / mass);
+        self.inv_inertia.push(1.0 / (0.4 * mass * radius * radius));
+        self.wall_history
+            .extend(std::iter::repeat_n([0.0; 3], walls));
+    }
+
+    /// Reorder every array so that new index `k` holds old grain `order[k]`.
+    pub fn permute(&mut self, order: &[usize], walls: usize) {
+        fn apply<T: Copy>(v: &mut Vec<T>, order: &[usize]) {
+            let old = std::mem::take(v);
+            v.extend(order.iter().map(|&k| old[k]));
+        }
+        apply(&mut self.id, order);
+        apply(&mut self.position, order);
+        apply(&mut self.velocity, order);
+        apply(&mut self.angular_velocity, order);
+        apply(&mut self.force, order);
+        apply(&mut self.torque, order);
+        apply(&mut self.external_force, order);
+        apply(&mut self.radius, order);
+        apply(&mut self.mass, order);
+        apply(&mut self.inv_mass, order);
+        apply(&mut self.inv_inertia, order);
+        if walls > 0 {
+            let old = std::mem::take(&mut self.wall_history);
+            for &k in order {
+                self.wall_history
+                    .extend_from_slice(&old[k * walls..(k + 1) * walls]);
+            }
+        }
+    }
+}

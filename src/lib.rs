@@ -1,0 +1,12 @@
+//! plugflow: gas–grain co-simulation for dense-phase pneumatic conveying.
+//!
+//! Where to look first: [`run::run`] is the step loop of a whole run; [`dem::NativeDem`] is
+//! the built-in DEM and its [`plugflow_coupling::DemBackend::advance`] the DEM step; scenes
+//! are read and checked in [`scene`].
+
+pub mod dem;
+pub mod rng;
+pub mod run;
+pub mod scene;
+
+pub use plugflow_coupling::{Real, Vec3};

@@ -1,0 +1,428 @@
+//! Scene files: TOML with a schema version, quantities with units, `--set` overrides, and
+//! errors that name the field path and the reason.
+
+pub mod schema;
+pub mod units;
+
+pub use schema::*;
+
+use std::path::Path;
+
+/// An error in a scene: which field and why (or an I/O or syntax error).
+#[derive(Debug, thiserror::Error)]
+pub enum SceneError {
+    /// The scene file could not be read.
+    #[error("cannot read scene `{path}`: {source}")]
+    Io {
+        path: String,
+        source: std::io::Error,
+    },
+    /// TOML syntax error.
+    #[error("scene is not valid TOML: {0}")]
+    Syntax(String),
+    /// A field has a bad value; `field` is the TOML path (`contact.restitution`).
+    #[error("field `{field}`: {reason}")]
+    Field { field: String, reason: String },
+    /// A `--set` override could not be applied.
+    #[error("override `{0}`: {1}")]
+    Override(String, String),
+}
+
+impl SceneError {
+    /// Shorthand for a field error.
+    pub fn field(field: impl Into<String>, reason: impl Into<String>) -> Self {
+        SceneError::Field {
+            field: field.into(),
+            reason: reason.into(),
+        }
+    }
+}
+
+/// A parsed scene whose values have passed the range checks.
+#[derive(Debug, Clone)]
+pub struct Scene {
+    /// The scene as written (after overrides).
+    pub file: SceneFile,
+    /// The scene text after overrides, re-serialised (stored with results).
+    pub text: String,
+}
+
+impl Scene {
+    /// Read `path`, apply `overrides` (`path.to.field=value`), parse and check.
+    pub fn load(path: &Path, overrides: &[String]) -> Result<Scene, SceneError> {
+        let text = std::fs::read_to_string(path).map_err(|source| SceneError::Io {
+            path: path.display().to_string(),
+            source,
+        })?;
+        Self::parse(&text, overrides)
+    }
+
+    /// Parse scene text, apply overrides and check ranges.
+    pub fn parse(text: &str, overrides: &[String]) -> Result<Scene, SceneError> {
+        let mut table: toml::Table =
+            toml::from_str(text).map_err(|e| SceneError::Syntax(e.to_string()))?;
+        for o in overrides {
+            apply_override(&mut table, o)?;
+        }
+        let value = toml::Value::Table(table.clone());
+        let file: SceneFile = serde_path_to_error::deserialize(value).map_err(|e| {
+            let path = e.path().to_string();
+            let inner = e.into_inner().to_string();
+            let reason = inner
+                .lines()
+                .next()
+                .unwrap_or_default()
+                .trim()
+                .to_string();
+            SceneError::field(if path == "." { "(top level)".into() } else { path }, reason)
+        })?;
+        check(&file)?;
+        Ok(Scene {
+            file,
+            text: toml::to_string(&table).unwrap_or_default(),
+        })
+    }
+
+    /// The folder a run writes to when no `--out` is given.
+    pub fn default_output_dir(&self) -> std::path::PathBuf {
+        Path::new("results").join(&self.file.name)
+    }
+}
+
+/// Apply one `a.b.c=value` override; the value is read as TOML (number, string, bool,
+/// array) and, failing that, as a bare string (so `dem.dt=5e-6 s` works unquoted).
+fn apply_override(table: &mut toml::Table, spec: &str) -> Result<(), SceneError> {
+    let (path, raw) = spec
+        .split_once('=')
+        .ok_or_else(|| SceneError::Override(spec.into(), "expected path.to.field=value".into()))?;
+    let path = path.trim();
+    if path.is_empty() || path.split('.').any(|p| p.is_empty()) {
+        return Err(SceneError::Override(spec.into(), "empty path segment".into()));
+    }
+    let raw = raw.trim();
+    let value: toml::Value = match toml::from_str::<toml::Table>(&format!("v = {raw}")) {
+        Ok(mut t) => t.remove("v").expect("key v was just parsed"),
+        Err(_) => toml::Value::String(raw.to_string()),
+    };
+    let parts: Vec<&str> = path.split('.').collect();
+    let mut cur = table;
+    for (k, part) in parts.iter().enumerate() {
+        if k + 1 == parts.len() {
+            cur.insert(part.to_string(), value);
+            return Ok(());
+        }
+        let entry = cur
+            .entry(part.to_string())
+            .or_insert_with(|| toml::Value::Table(toml::Table::new()));
+        cur = entry.as_table_mut().ok_or_else(|| {
+            SceneError::Override(
+                spec.into(),
+                format!("`{}` is not a table", parts[..=k].join(".")),
+            )
+        })?;
+    }
+    Ok(())
+}
+
+/// Range checks that the types alone cannot express.
+fn check(f: &SceneFile) -> Result<(), SceneError> {
+    if f.schema_version != SCHEMA_VERSION {
+        return Err(field_err(
+            "schema_version",
+            format!(
+                "version {} is not supported (this build reads version {SCHEMA_VERSION})",
+                f.schema_version
+            ),
+        ));
+    }
+    if f.name.trim().is_empty() || f.name.contains(['/', '\\']) {
+        return Err(field_err("name", "must be a non-empty name without path separators"));
+    }
+    if f.duration.si <= 0.0 {
+        return Err(field_err("duration", "must be positive"));
+    }
+    // Particles.
+    let p = &f.particles;
+    let (dmin, dmax) = match (p.diameter, p.diameter_min, p.diameter_max) {
+        (Some(d), None, None) => {
+            if d.si <= 0.0 {
+                return Err(field_err("particles.diameter", "must be positive"));
+            }
+            (d.si, d.si)
+        }
+        (None, Some(a), Some(b)) => {
+            if a.si <= 0.0 {
+                return Err(field_err("particles.diameter_min", "must be positive"));
+            }
+            if b.si < a.si {
+                return Err(field_err(
+                    "particles.diameter_max",
+                    "must not be smaller than diameter_min",
+                ));
+            }
+            (a.si, b.si)
+        }
+        (Some(_), _, _) => {
+            return Err(field_err(
+                "particles.diameter",
+                "give either `diameter` or `diameter_min` + `diameter_max`, not both",
+            ))
+        }
+        _ => {
+            return Err(field_err(
+                "particles.diameter",
+                "missing: give `diameter` (monodisperse) or `diameter_min` + `diameter_max`",
+            ))
+        }
+    };
+    let _ = dmin;
+    if p.density.si <= 0.0 {
+        return Err(field_err("particles.density", "must be positive"));
+    }
+    // Contact.
+    let c = &f.contact;
+    if c.friction.0 < 0.0 {
+        return Err(field_err("contact.friction", "must be ≥ 0"));
+    }
+    if !(c.restitution.0 > 0.0 && c.restitution.0 <= 1.0) {
+        return Err(field_err("contact.restitution", "must lie in (0, 1]"));
+    }
+    if let Some(m) = c.wall_friction {
+        if m.0 < 0.0 {
+            return Err(field_err("contact.wall_friction", "must be ≥ 0"));
+        }
+    }
+    if let Some(e) = c.wall_restitution {
+        if !(e.0 > 0.0 && e.0 <= 1.0) {
+            return Err(field_err("contact.wall_restitution", "must lie in (0, 1]"));
+        }
+    }
+    match c.normal {
+        NormalLawName::Hooke => {
+            match (c.stiffness, c.contact_time) {
+                (Some(k), None) if k.si <= 0.0 => {
+                    return Err(field_err("contact.stiffness", "must be positive"))
+                }
+                (None, Some(t)) if t.si <= 0.0 => {
+                    return Err(field_err("contact.contact_time", "must be positive"))
+                }
+                (Some(_), Some(_)) => {
+                    return Err(field_err(
+                        "contact.stiffness",
+                        "give `stiffness` or `contact_time`, not both",
+                    ))
+                }
+                (None, None) => {
+                    return Err(field_err(
+                        "contact.stiffness",
+                        "missing: the hooke law needs `stiffness` or `contact_time`",
+                    ))
+                }
+                _ => {}
+            }
+            if c.youngs_modulus.is_some() || c.poisson_ratio.is_some() {
+                return Err(field_err(
+                    "contact.youngs_modulus",
+                    "belongs to the hertz law; the hooke law takes `stiffness` or `contact_time`",
+                ));
+            }
+            if let Some(r) = c.tangential_stiffness_ratio {
+                if r.0 <= 0.0 {
+                    return Err(field_err("contact.tangential_stiffness_ratio", "must be positive"));
+                }
+            }
+        }
+        NormalLawName::Hertz => {
+            let e = c.youngs_modulus.ok_or_else(|| {
+                field_err("contact.youngs_modulus", "missing: the hertz law needs it")
+            })?;
+            if e.si <= 0.0 {
+                return Err(field_err("contact.youngs_modulus", "must be positive"));
+            }
+            let nu = c
+                .poisson_ratio
+                .ok_or_else(|| field_err("contact.poisson_ratio", "missing: the hertz law needs it"))?;
+            if !(0.0..0.5).contains(&nu.0) {
+                return Err(field_err("contact.poisson_ratio", "must lie in [0, 0.5)"));
+            }
+            if c.stiffness.is_some() || c.contact_time.is_some() {
+                return Err(field_err(
+                    "contact.stiffness",
+                    "belongs to the hooke law; the hertz law derives stiffness from E and ν",
+                ));
+            }
+            if c.tangential_stiffness_ratio.is_some() {
+                return Err(field_err(
+                    "contact.tangential_stiffness_ratio",
+                    "belongs to the hooke law; hertz uses the Mindlin stiffness",
+                ));
+            }
+        }
+    }
+    if let Some(g) = c.tangential_damping {
+        if c.tangential != TangentialLawName::CoulombViscous {
+            return Err(field_err(
+                "contact.tangential_damping",
+                "only the coulomb_viscous law takes it",
+            ));
+        }
+        if g.si < 0.0 {
+            return Err(field_err("contact.tangential_damping", "must be ≥ 0"));
+        }
+    }
+    // Engine.
+    let d = &f.dem;
+    if d.engine != "native" {
+        return Err(field_err(
+            "dem.engine",
+            format!(
+                "unknown engine `{}` (this build has: native)",
+                d.engine
+            ),
+        ));
+    }
+    if let Some(dt) = d.dt {
+        if dt.si <= 0.0 {
+            return Err(field_err("dem.dt", "must be positive"));
+        }
+    }
+    if d.dt_fraction.0 < 10.0 {
+        return Err(field_err(
+            "dem.dt_fraction",
+            "must be ≥ 10 (the stability limit is a tenth of the contact time)",
+        ));
+    }
+    if let Some(s) = d.skin {
+        if s.si <= 0.0 {
+            return Err(field_err("dem.skin", "must be positive"));
+        }
+    }
+    if d.threads == 0 || d.threads > 256 {
+        return Err(field_err("dem.threads", "must lie in 1..=256"));
+    }
+    if d.max_impact_velocity.si <= 0.0 {
+        return Err(field_err("dem.max_impact_velocity", "must be positive"));
+    }
+    // Geometry.
+    match (&f.tube, &f.domain) {
+        (None, None) => {
+            return Err(field_err(
+                "tube",
+                "missing: a scene needs a [tube] or, without one, a [domain] box",
+            ))
+        }
+        (Some(_), Some(_)) => {
+            return Err(field_err(
+                "domain",
+                "a scene with a [tube] takes its box from the tube; remove [domain]",
+            ))
+        }
+        _ => {}
+    }
+    if let Some(t) = &f.tube {
+        if t.length.si <= 0.0 {
+            return Err(field_err("tube.length", "must be positive"));
+        }
+        if t.diameter.si <= 0.0 {
+            return Err(field_err("tube.diameter", "must be positive"));
+        }
+        if t.diameter.si <= dmax {
+            return Err(field_err(
+                "tube.diameter",
+                format!(
+                    "{} m is not wider than the largest grain ({} m)",
+                    t.diameter.si, dmax
+                ),
+            ));
+        }
+        let n = norm(&t.axis.map(|a| a.0));
+        if n == 0.0 {
+            return Err(field_err("tube.axis", "must not be the zero vector"));
+        }
+    }
+    if let Some(b) = &f.domain {
+        for k in 0..3 {
+            if b.max[k].si - b.min[k].si <= dmax {
+                return Err(field_err(
+                    format!("domain.max[{k}]"),
+                    "the box must be wider than the largest grain in every direction",
+                ));
+            }
+        }
+    }
+    for (k, w) in f.walls.iter().enumerate() {
+        if norm(&w.normal.map(|a| a.0)) == 0.0 {
+            return Err(field_err(
+                format!("walls[{k}].normal"),
+                "must not be the zero vector",
+            ));
+        }
+        if w.name.trim().is_empty() {
+            return Err(field_err(format!("walls[{k}].name"), "must not be empty"));
+        }
+    }
+    // Inlet.
+    if let Some(i) = &f.inlet {
+        if f.tube.is_none() {
+            return Err(field_err("inlet", "an inlet needs a [tube] to feed"));
+        }
+        match (i.mass_flow, i.rate) {
+            (Some(m), None) if m.si <= 0.0 => {
+                return Err(field_err("inlet.mass_flow", "must be positive"))
+            }
+            (None, Some(r)) if r.si <= 0.0 => return Err(field_err("inlet.rate", "must be positive")),
+            (Some(_), Some(_)) => {
+                return Err(field_err("inlet.rate", "give `mass_flow` or `rate`, not both"))
+            }
+            (None, None) => {
+                return Err(field_err(
+                    "inlet.mass_flow",
+                    "missing: give `mass_flow` (e.g. \"2.49 kg/h\") or `rate` (grains/s)",
+                ))
+            }
+            _ => {}
+        }
+        if !(i.porosity.0 > 0.0 && i.porosity.0 < 1.0) {
+            return Err(field_err("inlet.porosity", "must lie in (0, 1)"));
+        }
+        if i.velocity.si < 0.0 {
+            return Err(field_err(
+                "inlet.velocity",
+                "must be ≥ 0 (it points along the tube axis, into the tube)",
+            ));
+        }
+        if let Some(s) = i.slab_length {
+            if s.si < dmax {
+                return Err(field_err(
+                    "inlet.slab_length",
+                    "must be at least one grain diameter",
+                ));
+            }
+        }
+    }
+    if let Some(ini) = &f.initial {
+        if ini.to.si <= ini.from.si {
+            return Err(field_err("initial.to", "must be greater than `initial.from`"));
+        }
+    }
+    if f.output.sample_interval.si <= 0.0 {
+        return Err(field_err("output.sample_interval", "must be positive"));
+    }
+    if let Some(s) = f.output.settling_time {
+        if s.si < 0.0 || s.si >= f.duration.si {
+            return Err(field_err(
+                "output.settling_time",
+                "must lie in [0, duration): means are taken after it",
+            ));
+        }
+    }
+    Ok(())
+}
+
+fn norm(v: &[f64; 3]) -> f64 {
+    (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt()
+}
+
+fn field_err(field: impl Into<String>, reason: impl Into<String>) -> SceneError {
+    SceneError::field(field, reason)
+}

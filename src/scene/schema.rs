@@ -1,0 +1,306 @@
+//! The scene file schema (TOML, `schema_version = 1`). Every field: meaning, unit, default.
+//!
+//! Sections a scene leaves out are not computed: no `[inlet]`, no feeding; no `[[walls]]`,
+//! no extra planes; `dem.rotation = false`, no angular velocities at all.
+
+use serde::Deserialize;
+
+use super::units::{
+    Acceleration, Damping, Density, Finite, Length, MassFlow, Pressure, Rate, Stiffness, Time,
+    Velocity, Q,
+};
+
+/// Current schema version; a scene must state it.
+pub const SCHEMA_VERSION: u32 = 1;
+
+/// A scene as written in the file.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SceneFile {
+    /// Must equal [`SCHEMA_VERSION`].
+    pub schema_version: u32,
+    /// Case name; the default output folder is `results/<name>/`.
+    pub name: String,
+    /// Simulated time of the run, s (overridden by `plugflow run --duration`).
+    pub duration: Q<Time>,
+    /// Seed of the random numbers (inlet and initial placement). Default 1.
+    #[serde(default = "default_seed")]
+    pub seed: u64,
+    /// Gravity vector, m/s² (e.g. `[0, 0, -9.81]`; `[0, -9.81, 0]` for a horizontal tube along z).
+    pub gravity: [Q<Acceleration>; 3],
+    /// The conveying tube: an inner cylinder wall with optional end caps.
+    pub tube: Option<TubeSpec>,
+    /// Axis-aligned simulation box for scenes without a tube, m.
+    pub domain: Option<DomainSpec>,
+    /// Grain size and material.
+    pub particles: ParticleSpec,
+    /// Contact laws and their parameters.
+    pub contact: ContactSpec,
+    /// Engine settings. All fields have defaults.
+    #[serde(default)]
+    pub dem: DemSpec,
+    /// Mass-flow inlet at the tube's inlet end.
+    pub inlet: Option<InletSpec>,
+    /// Grains placed before the run starts.
+    pub initial: Option<InitialSpec>,
+    /// Extra plane walls.
+    #[serde(default)]
+    pub walls: Vec<PlaneSpec>,
+    /// Output settings.
+    #[serde(default)]
+    pub output: OutputSpec,
+}
+
+fn default_seed() -> u64 {
+    1
+}
+
+/// An end of the tube: closed by a flat cap wall, or open (grains past it leave the domain).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum TubeEnd {
+    /// A flat wall (gas-permeable for the gas solver) stops the grains.
+    Closed,
+    /// Grains whose centre passes the end are removed and counted.
+    Open,
+}
+
+/// The tube: a cylinder from `origin` (inlet end) along `axis` for `length`.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct TubeSpec {
+    /// Inner diameter, m.
+    pub diameter: Q<Length>,
+    /// Length, m.
+    pub length: Q<Length>,
+    /// Direction from inlet to outlet (normalised on load). Default `[0, 0, 1]`.
+    #[serde(default = "default_axis")]
+    pub axis: [Finite; 3],
+    /// Centre of the inlet end, m. Default origin.
+    #[serde(default = "default_origin")]
+    pub origin: [Q<Length>; 3],
+    /// Inlet end. Default `closed`.
+    #[serde(default = "default_closed")]
+    pub inlet_end: TubeEnd,
+    /// Outlet end. Default `open`.
+    #[serde(default = "default_open")]
+    pub outlet_end: TubeEnd,
+}
+
+fn default_axis() -> [Finite; 3] {
+    [Finite(0.0), Finite(0.0), Finite(1.0)]
+}
+fn default_origin() -> [Q<Length>; 3] {
+    [Q::si(0.0), Q::si(0.0), Q::si(0.0)]
+}
+fn default_closed() -> TubeEnd {
+    TubeEnd::Closed
+}
+fn default_open() -> TubeEnd {
+    TubeEnd::Open
+}
+
+/// An axis-aligned box, m. Grains leaving it are removed (counted as lost).
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct DomainSpec {
+    /// Lower corner, m.
+    pub min: [Q<Length>; 3],
+    /// Upper corner, m.
+    pub max: [Q<Length>; 3],
+}
+
+/// Grain size and material: either `diameter` (monodisperse) or `diameter_min` and
+/// `diameter_max` (uniform distribution of diameters).
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ParticleSpec {
+    /// Diameter of monodisperse spheres, m.
+    pub diameter: Option<Q<Length>>,
+    /// Smallest diameter of a polydisperse mix, m.
+    pub diameter_min: Option<Q<Length>>,
+    /// Largest diameter of a polydisperse mix, m.
+    pub diameter_max: Option<Q<Length>>,
+    /// Material density, kg/m³.
+    pub density: Q<Density>,
+}
+
+/// Normal contact law.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum NormalLawName {
+    /// Linear spring–dashpot (seeds 000, 002).
+    Hooke,
+    /// Hertz with Tsuji damping (seed 004 eqs. 4–9).
+    Hertz,
+}
+
+/// Tangential contact law.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum TangentialLawName {
+    /// The seeds' regularised Coulomb law: min(μ|F_n|, γ_t |v_t|) against the slip.
+    CoulombViscous,
+    /// Cundall–Strack spring with contact history, capped by μ|F_n|.
+    History,
+}
+
+/// Contact parameters.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ContactSpec {
+    /// `hooke` or `hertz`.
+    pub normal: NormalLawName,
+    /// `history` (default) or `coulomb_viscous`.
+    #[serde(default = "default_tangential")]
+    pub tangential: TangentialLawName,
+    /// Coulomb friction coefficient μ ≥ 0, grain–grain.
+    pub friction: Finite,
+    /// Coefficient of normal restitution e in (0, 1], grain–grain.
+    pub restitution: Finite,
+    /// Hooke: normal spring stiffness k_n, N/m (give this or `contact_time`).
+    pub stiffness: Option<Q<Stiffness>>,
+    /// Hooke: duration of a binary collision of two mean grains, s (sets k_n).
+    pub contact_time: Option<Q<Time>>,
+    /// Hooke + history: k_t / k_n. Default 2/7 (equal normal and tangential periods).
+    pub tangential_stiffness_ratio: Option<Finite>,
+    /// Hertz: Young's modulus E, Pa.
+    pub youngs_modulus: Option<Q<Pressure>>,
+    /// Hertz: Poisson ratio ν in [0, 0.5).
+    pub poisson_ratio: Option<Finite>,
+    /// `coulomb_viscous`: tangential viscous coefficient γ_t, kg/s. Default: the pair's
+    /// normal damping coefficient (η_t = η_n as in seed 004).
+    pub tangential_damping: Option<Q<Damping>>,
+    /// Grain–wall friction. Default: `friction`.
+    pub wall_friction: Option<Finite>,
+    /// Grain–wall restitution. Default: `restitution`.
+    pub wall_restitution: Option<Finite>,
+}
+
+fn default_tangential() -> TangentialLawName {
+    TangentialLawName::History
+}
+
+/// Engine settings.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct DemSpec {
+    /// DEM engine: `native` (default).
+    #[serde(default = "default_engine")]
+    pub engine: String,
+    /// Time step, s. Default: contact time / `dt_fraction`. Refused above the stability limit.
+    pub dt: Option<Q<Time>>,
+    /// Steps per contact time when `dt` is derived. Default 50.
+    #[serde(default = "default_dt_fraction")]
+    pub dt_fraction: Finite,
+    /// Integrate rotations. Default true; false computes no angular velocity at all.
+    #[serde(default = "default_true")]
+    pub rotation: bool,
+    /// Verlet skin, m. Default 0.1 × largest diameter.
+    pub skin: Option<Q<Length>>,
+    /// Worker threads of the force loop. Default 1 (results are bitwise reproducible for a
+    /// given thread count).
+    #[serde(default = "default_threads")]
+    pub threads: usize,
+    /// Largest impact velocity expected, m/s: sets the Hertz contact time. Default 1 m/s.
+    #[serde(default = "default_impact_velocity")]
+    pub max_impact_velocity: Q<Velocity>,
+}
+
+impl Default for DemSpec {
+    fn default() -> Self {
+        Self {
+            engine: default_engine(),
+            dt: None,
+            dt_fraction: default_dt_fraction(),
+            rotation: true,
+            skin: None,
+            threads: default_threads(),
+            max_impact_velocity: default_impact_velocity(),
+        }
+    }
+}
+
+fn default_engine() -> String {
+    "native".into()
+}
+fn default_dt_fraction() -> Finite {
+    Finite(50.0)
+}
+fn default_true() -> bool {
+    true
+}
+fn default_threads() -> usize {
+    1
+}
+fn default_impact_velocity() -> Q<Velocity> {
+    Q::si(1.0)
+}
+
+/// Mass-flow inlet at the tube's inlet end: batches of grains placed without overlap in a
+/// slab at the given porosity, moving along the axis at `velocity`. Give `mass_flow` or `rate`.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct InletSpec {
+    /// Granular mass flow, kg/s.
+    pub mass_flow: Option<Q<MassFlow>>,
+    /// Grains per second.
+    pub rate: Option<Q<Rate>>,
+    /// Porosity of the fed grains, in (0, 1).
+    pub porosity: Finite,
+    /// Feed velocity along the tube axis, m/s (≥ 0).
+    pub velocity: Q<Velocity>,
+    /// Length of the insertion slab, m. Default 3 × largest diameter.
+    pub slab_length: Option<Q<Length>>,
+}
+
+/// Grains placed at random lattice sites between two axial positions before the run.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct InitialSpec {
+    /// Number of grains.
+    pub count: u64,
+    /// Start of the filled stretch along the tube axis (or z without a tube), m.
+    pub from: Q<Length>,
+    /// End of the filled stretch, m.
+    pub to: Q<Length>,
+    /// Initial velocity of every grain, m/s. Default zero.
+    pub velocity: Option<[Q<Velocity>; 3]>,
+}
+
+/// A plane wall; grains live on the side its normal points to.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PlaneSpec {
+    /// Name used in wall-force reports.
+    pub name: String,
+    /// A point on the plane, m.
+    pub point: [Q<Length>; 3],
+    /// Normal pointing into the domain (normalised on load).
+    pub normal: [Finite; 3],
+}
+
+/// Output settings.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct OutputSpec {
+    /// Interval between samples of the tube content, s. Default 0.01 s.
+    #[serde(default = "default_sample")]
+    pub sample_interval: Q<Time>,
+    /// Time before which samples do not enter the means (the tube fills), s. Default 0.
+    #[serde(default)]
+    pub settling_time: Option<Q<Time>>,
+}
+
+impl Default for OutputSpec {
+    fn default() -> Self {
+        Self {
+            sample_interval: default_sample(),
+            settling_time: None,
+        }
+    }
+}
+
+fn default_sample() -> Q<Time> {
+    Q::si(0.01)
+}
