@@ -71,6 +71,10 @@ pub struct NativeDem {
     spills: Vec<Vec<Spill>>,
     timer: StageTimer,
     pool: Option<rayon::ThreadPool>,
+    /// Scratch: velocities predicted to t + dt for the velocity-dependent forces.
+    velocity_pred: Vec<Vec3>,
+    /// Scratch: angular velocities predicted to t + dt.
+    angular_velocity_pred: Vec<Vec3>,
 }
 
 impl NativeDem {
@@ -103,6 +107,8 @@ impl NativeDem {
             spills: vec![Vec::new(); cfg.threads],
             timer: StageTimer::new(),
             pool,
+            velocity_pred: Vec::new(),
+            angular_velocity_pred: Vec::new(),
             cfg,
         };
         if let Some(init) = dem.cfg.initial.clone() {
@@ -299,7 +305,35 @@ impl NativeDem {
         }
     }
 
+    /// Velocities at t + dt predicted from the half-step ones with the last accelerations,
+    /// v(t+dt) ≈ v(t+dt/2) + a(t) dt/2. The dashpots see these rather than the half-step
+    /// velocities of plain velocity-Verlet, whose lag of dt/2 over-damps every collision by
+    /// O(dt/t_c) (e = 0.5 came out as 0.493 at t_c/50; with the predictor the error is
+    /// O((dt/t_c)²)).
+    fn predict_velocities(&mut self) {
+        let h = 0.5 * self.cfg.dt;
+        let s = &self.state;
+        self.velocity_pred.clear();
+        self.velocity_pred.extend((0..s.len()).map(|i| {
+            let a = s.inv_mass[i] * h;
+            let (v, f) = (s.velocity[i], s.force[i]);
+            [v[0] + f[0] * a, v[1] + f[1] * a, v[2] + f[2] * a]
+        }));
+        self.angular_velocity_pred.clear();
+        if self.cfg.rotation {
+            self.angular_velocity_pred.extend((0..s.len()).map(|i| {
+                let b = s.inv_inertia[i] * h;
+                let (w, t) = (s.angular_velocity[i], s.torque[i]);
+                [w[0] + t[0] * b, w[1] + t[1] * b, w[2] + t[2] * b]
+            }));
+        } else {
+            self.angular_velocity_pred
+                .extend_from_slice(&s.angular_velocity);
+        }
+    }
+
     fn forces_with<N: NormalLaw, T: TangentialLaw>(&mut self, laws: &Laws<N, T>) {
+        self.predict_velocities();
         let n = self.state.len();
         let nw = self.cfg.walls.len();
         let set = StepSettings {
@@ -311,8 +345,8 @@ impl NativeDem {
         let s = &mut self.state;
         let g = GrainsIn {
             position: &s.position,
-            velocity: &s.velocity,
-            angular_velocity: &s.angular_velocity,
+            velocity: &self.velocity_pred,
+            angular_velocity: &self.angular_velocity_pred,
             radius: &s.radius,
             mass: &s.mass,
             external_force: &s.external_force,

@@ -1,0 +1,55 @@
+//! Helpers shared by the integration tests.
+#![allow(dead_code)]
+
+use plugflow::dem::{DemConfig, NativeDem};
+use plugflow::scene::Scene;
+
+/// Engine from scene text (panics with the scene error: test scenes are ours).
+pub fn engine(text: &str) -> NativeDem {
+    let scene = Scene::parse(text, &[]).unwrap_or_else(|e| panic!("test scene: {e}"));
+    NativeDem::new(DemConfig::from_scene(&scene).unwrap_or_else(|e| panic!("config: {e}")))
+        .unwrap_or_else(|e| panic!("engine: {e}"))
+}
+
+/// A box scene without tube; `contact` and `extra` are TOML snippets.
+pub fn box_scene(gravity: &str, contact: &str, extra: &str) -> String {
+    format!(
+        r#"
+schema_version = 1
+name = "test"
+duration = "1 s"
+gravity = {gravity}
+[domain]
+min = [-0.01, -0.01, -0.01]
+max = [0.01, 0.01, 0.01]
+[particles]
+diameter = "1.4 mm"
+density = "937 kg/m^3"
+[contact]
+{contact}
+{extra}
+"#
+    )
+}
+
+pub const HOOKE: &str = r#"normal = "hooke"
+tangential = "history"
+contact_time = "1e-4 s"
+friction = 0.5
+restitution = 0.5"#;
+
+pub const HERTZ: &str = r#"normal = "hertz"
+tangential = "history"
+youngs_modulus = "1e7 Pa"
+poisson_ratio = 0.3
+friction = 0.5
+restitution = 0.5"#;
+
+pub fn grain(x: [f64; 3], v: [f64; 3]) -> plugflow_coupling::NewParticle {
+    plugflow_coupling::NewParticle {
+        position: x,
+        velocity: v,
+        radius: 0.7e-3,
+        density: 937.0,
+    }
+}
