@@ -48,8 +48,12 @@ fn main() -> ExitCode {
     let cli = Cli::parse();
     match cli.command {
         Command::Validate { scene, set } => {
-            let checked = Scene::load(&scene, &set)
-                .and_then(|s| DemConfig::from_scene(&s).map(|c| (s, c)));
+            // Build the engine too: initial placement can fail on a valid-looking scene.
+            let checked = Scene::load(&scene, &set).and_then(|s| {
+                let c = DemConfig::from_scene(&s)?;
+                plugflow::dem::NativeDem::new(c.clone())?;
+                Ok((s, c))
+            });
             match checked {
                 Ok((s, c)) => {
                     println!(

@@ -59,6 +59,10 @@ dimension!(Damping, "damping coefficient", [("kg/s", 1.0), ("N*s/m", 1.0), ("Ns/
 /// Parse `text` as a quantity of dimension `D`, returning its SI value.
 pub fn parse_quantity<D: Dimension>(text: &str) -> Result<Real, String> {
     let t = text.trim();
+    let lower = t.trim_start_matches(['+', '-']).to_ascii_lowercase();
+    if lower.starts_with("nan") || lower.starts_with("inf") {
+        return Err(format!("`{text}` is not a finite number"));
+    }
     let split = t
         .char_indices()
         .find(|&(i, c)| {
