@@ -1,1 +1,179 @@
-fn main(){}
+//! Built-in DEM vs LIGGGHTS on one settled bed (cases/bench_bed.toml): same grains, same
+//! Hertz + history parameters, same dt, same step count, same starting positions (at rest,
+//! no contact history). Prints particle-steps per second for each and, last,
+//! `ratio native/liggghts: X` (one core each). Not a test: numbers depend on the machine.
+//!
+//! cargo bench --bench dem_bench [-- --steps N]
+
+use std::path::Path;
+use std::process::Command;
+use std::time::Instant;
+
+use plugflow::dem::{DemConfig, NativeDem};
+use plugflow::scene::Scene;
+use plugflow_coupling::{DemBackend, NewParticle};
+
+fn main() {
+    let args: Vec<String> = std::env::args().collect();
+    let steps: u64 = args
+        .iter()
+        .position(|a| a == "--steps")
+        .and_then(|k| args.get(k + 1))
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(20_000);
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let scene_path = root.join("cases/bench_bed.toml");
+    let scene = Scene::load(&scene_path, &[]).expect("bench scene");
+    let work = root.join("target/bench_bed");
+    std::fs::create_dir_all(&work).unwrap();
+
+    // 1. Settle the bed once with the built-in DEM.
+    let mut dem = NativeDem::new(DemConfig::from_scene(&scene).unwrap()).unwrap();
+    let settle_steps = (scene.file.duration.si / dem.time_step()).round() as u64;
+    eprintln!(
+        "settling {} grains for {settle_steps} steps ...",
+        dem.particles().len()
+    );
+    dem.advance(settle_steps).unwrap();
+    let p = dem.particles();
+    let bed: Vec<([f64; 3], f64)> = p
+        .position
+        .iter()
+        .copied()
+        .zip(p.radius.iter().copied())
+        .collect();
+    let top = bed.iter().map(|b| b.0[2]).fold(0.0, f64::max);
+    eprintln!("bed: {} grains, height {:.4} m", bed.len(), top);
+
+    // 2. The same bed, at rest, in a fresh native engine (no initial fill).
+    let native = |threads: usize| -> f64 {
+        let s = Scene::load(
+            &scene_path,
+            &["initial.count=0".into(), format!("dem.threads={threads}")],
+        )
+        .unwrap();
+        let mut d = NativeDem::new(DemConfig::from_scene(&s).unwrap()).unwrap();
+        let grains: Vec<NewParticle> = bed
+            .iter()
+            .map(|&(x, r)| NewParticle {
+                position: x,
+                velocity: [0.0; 3],
+                radius: r,
+                density: 937.0,
+            })
+            .collect();
+        d.insert(&grains).unwrap();
+        d.advance(1).unwrap(); // first neighbour build outside the timing
+        let t = Instant::now();
+        d.advance(steps).unwrap();
+        let secs = t.elapsed().as_secs_f64();
+        eprintln!("  stages ({threads} threads): {:?}", d.stage_times());
+        bed.len() as f64 * steps as f64 / secs
+    };
+    let n1 = native(1);
+    println!("native 1 thread : {:.3e} particle-steps/s", n1);
+    let n2 = native(2);
+    println!(
+        "native 2 threads: {:.3e} particle-steps/s ({:.2}x its one-thread speed)",
+        n2,
+        n2 / n1
+    );
+
+    // 3. LIGGGHTS from Debian's package on the same bed.
+    match liggghts(&work, &bed, steps) {
+        Ok(l) => {
+            println!("liggghts 1 proc : {:.3e} particle-steps/s", l);
+            println!("ratio native/liggghts: {:.2}", n1 / l);
+        }
+        Err(e) => {
+            println!("liggghts: not measured ({e})");
+            println!("ratio native/liggghts: unavailable");
+        }
+    }
+}
+
+/// Run the `liggghts` binary on the bed; returns particle-steps/s from its loop time.
+fn liggghts(work: &Path, bed: &[([f64; 3], f64)], steps: u64) -> Result<f64, String> {
+    let mut data = String::new();
+    data.push_str("plugflow bench bed\n\n");
+    data.push_str(&format!("{} atoms\n1 atom types\n\n", bed.len()));
+    data.push_str("-0.004 0.004 xlo xhi\n-0.004 0.004 ylo yhi\n-0.001 0.401 zlo zhi\n\nAtoms\n\n");
+    for (k, (x, r)) in bed.iter().enumerate() {
+        data.push_str(&format!(
+            "{} 1 {:.17e} 937 {:.17e} {:.17e} {:.17e}\n",
+            k + 1,
+            2.0 * r,
+            x[0],
+            x[1],
+            x[2]
+        ));
+    }
+    std::fs::write(work.join("bed.data"), data).map_err(|e| e.to_string())?;
+    let input = format!(
+        "atom_style granular
+atom_modify map array
+boundary f f f
+newton off
+communicate single vel yes
+units si
+read_data bed.data
+neighbor 0.00014 bin
+neigh_modify delay 0
+fix m1 all property/global youngsModulus peratomtype 5e6
+fix m2 all property/global poissonsRatio peratomtype 0.45
+fix m3 all property/global coefficientRestitution peratomtypepair 1 0.5
+fix m4 all property/global coefficientFriction peratomtypepair 1 0.5
+pair_style gran model hertz tangential history
+pair_coeff * *
+timestep 5e-6
+fix gravi all gravity 9.81 vector 0.0 0.0 -1.0
+fix bottom all wall/gran model hertz tangential history primitive type 1 zplane 0.0
+fix top all wall/gran model hertz tangential history primitive type 1 zplane 0.4
+fix tube all wall/gran model hertz tangential history primitive type 1 zcylinder 0.0035 0.0 0.0
+fix integr all nve/sphere
+thermo 5000
+run 1
+run {steps}
+"
+    );
+    std::fs::write(work.join("in.bench"), input).map_err(|e| e.to_string())?;
+    let out = Command::new("liggghts")
+        .current_dir(work)
+        .env("OMP_NUM_THREADS", "1")
+        .args([
+            "-in",
+            "in.bench",
+            "-echo",
+            "none",
+            "-screen",
+            "screen.txt",
+            "-log",
+            "log.txt",
+        ])
+        .output()
+        .map_err(|e| format!("cannot start `liggghts` ({e}); run scripts/setup-system.sh"))?;
+    let log = std::fs::read_to_string(work.join("log.txt")).unwrap_or_default();
+    if !out.status.success() {
+        return Err(format!(
+            "liggghts exited with {}; see {}",
+            out.status,
+            work.join("log.txt").display()
+        ));
+    }
+    // "Loop time of 3.2 on 1 procs for 20000 steps with 1902 atoms" (the last run).
+    let line = log
+        .lines()
+        .rfind(|l| l.starts_with("Loop time of"))
+        .ok_or("no loop time in the LIGGGHTS log")?;
+    let words: Vec<&str> = line.split_whitespace().collect();
+    let secs: f64 = words[3]
+        .parse()
+        .map_err(|_| format!("cannot read `{line}`"))?;
+    let atoms: f64 = words
+        .iter()
+        .position(|w| *w == "with")
+        .and_then(|k| words.get(k + 1))
+        .and_then(|w| w.parse().ok())
+        .ok_or_else(|| format!("cannot read `{line}`"))?;
+    Ok(atoms * steps as f64 / secs)
+}

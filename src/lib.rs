@@ -4,6 +4,9 @@
 //! the built-in DEM and its [`plugflow_coupling::DemBackend::advance`] the DEM step; scenes
 //! are read and checked in [`scene`].
 
+// Index loops over several structure-of-arrays columns at once read better than zips.
+#![allow(clippy::needless_range_loop)]
+
 pub mod dem;
 pub mod rng;
 pub mod run;

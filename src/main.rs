@@ -9,7 +9,11 @@ use plugflow::run::{run, RunError, RunOptions};
 use plugflow::scene::Scene;
 
 #[derive(Parser)]
-#[command(name = "plugflow", version, about = "Gas–grain co-simulation of dense-phase pneumatic conveying")]
+#[command(
+    name = "plugflow",
+    version,
+    about = "Gas–grain co-simulation of dense-phase pneumatic conveying"
+)]
 struct Cli {
     #[command(subcommand)]
     command: Command,
@@ -60,7 +64,11 @@ fn main() -> ExitCode {
                         "ok: scene `{}`: dt = {:.3e} s ({}; limit {:.3e} s: {}), {} walls",
                         s.file.name,
                         c.dt,
-                        if c.dt_report.derived { "derived" } else { "given" },
+                        if c.dt_report.derived {
+                            "derived"
+                        } else {
+                            "given"
+                        },
                         c.dt_report.limit,
                         c.dt_report.limit_reason,
                         c.walls.len()

@@ -31,7 +31,11 @@ fn scenes(dir: &str) -> Vec<std::path::PathBuf> {
 #[test]
 fn bad_scenes_are_refused_with_field_and_reason() {
     let bad = scenes("tests/scenes/bad");
-    assert!(bad.len() >= 25, "the corpus needs at least 25 bad scenes, has {}", bad.len());
+    assert!(
+        bad.len() >= 25,
+        "the corpus needs at least 25 bad scenes, has {}",
+        bad.len()
+    );
     let mut failures = Vec::new();
     for p in &bad {
         let text = std::fs::read_to_string(p).unwrap();
@@ -73,7 +77,10 @@ fn overrides_reach_any_field_and_are_checked() {
             c.arg("--set").arg(s);
         }
         let o = c.output().unwrap();
-        (o.status.code().unwrap(), String::from_utf8_lossy(&o.stderr).to_string())
+        (
+            o.status.code().unwrap(),
+            String::from_utf8_lossy(&o.stderr).to_string(),
+        )
     };
     assert_eq!(run(&["contact.friction=0.3", "dem.dt=2e-6 s"]).0, 0);
     let (code, err) = run(&["contact.restitution=2"]);
@@ -81,7 +88,10 @@ fn overrides_reach_any_field_and_are_checked() {
     assert!(err.contains("contact.restitution"), "{err}");
     let (code, err) = run(&["dem.dt=1e-3 s"]);
     assert_eq!(code, 2);
-    assert!(err.contains("dem.dt") && err.contains("stability limit"), "{err}");
+    assert!(
+        err.contains("dem.dt") && err.contains("stability limit"),
+        "{err}"
+    );
     let (code, err) = run(&["tube.nonsense=1"]);
     assert_eq!(code, 2);
     assert!(err.contains("nonsense"), "{err}");

@@ -107,7 +107,10 @@ fn settled_bed_porosity_and_janssen_saturation() {
     // 80 % of it (the porosity estimate enters ρ_b).
     let rho_b = (1.0 - porosity) * 937.0;
     let janssen = rho_b * 9.81 * 2.0 * big_r / (4.0 * 0.5);
-    assert!(deep > 0.8 * janssen, "deep stress {deep} Pa below Janssen {janssen} Pa");
+    assert!(
+        deep > 0.8 * janssen,
+        "deep stress {deep} Pa below Janssen {janssen} Pa"
+    );
     // Measured here: the saturated wall stress is ~10× Janssen's fully mobilised value
     // (≈ 170 Pa vs 17 Pa). The grains rain in at up to 1 m/s onto soft contacts and wedge
     // between the walls (D/d = 5), locking in lateral stress that friction, mobilised only
@@ -119,7 +122,11 @@ fn run_positions(threads: usize, steps: u64) -> Vec<[f64; 3]> {
     dem.advance(steps).unwrap();
     let p = dem.particles();
     // Report in id order so the comparison does not depend on the internal sort.
-    let mut v: Vec<(u64, [f64; 3])> = p.id.iter().copied().zip(p.position.iter().copied()).collect();
+    let mut v: Vec<(u64, [f64; 3])> =
+        p.id.iter()
+            .copied()
+            .zip(p.position.iter().copied())
+            .collect();
     v.sort_by_key(|e| e.0);
     v.into_iter().map(|e| e.1).collect()
 }
@@ -140,5 +147,8 @@ fn same_scene_same_threads_gives_bitwise_same_result() {
         .zip(&two)
         .map(|(a, b)| (0..3).map(|k| (a[k] - b[k]).abs()).fold(0.0, f64::max))
         .fold(0.0, f64::max);
-    assert!(max_diff < 1e-9, "1 vs 2 threads differ by {max_diff} m after 2000 steps");
+    assert!(
+        max_diff < 1e-9,
+        "1 vs 2 threads differ by {max_diff} m after 2000 steps"
+    );
 }

@@ -72,8 +72,8 @@ pub struct WallForce {
 /// Errors a backend reports to the driver; each names where it happened.
 #[derive(Debug, thiserror::Error)]
 pub enum BackendError {
-    /// A grain's state became NaN or infinite.
-    #[error("non-finite state at step {step}: particle id {particle_id} ({what})")]
+    /// A grain's state became NaN or infinite, or blew up.
+    #[error("non-finite or blown-up state at step {step}: particle id {particle_id} ({what})")]
     NonFinite {
         step: u64,
         particle_id: u64,

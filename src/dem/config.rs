@@ -134,7 +134,7 @@ impl DemConfig {
     /// Derive the configuration from a checked scene.
     pub fn from_scene(scene: &Scene) -> Result<Self, SceneError> {
         let f = &scene.file;
-            let p = &f.particles;
+        let p = &f.particles;
         let (dmin, dmax) = match p.diameter {
             Some(d) => (d.si, d.si),
             None => (
@@ -153,7 +153,10 @@ impl DemConfig {
         let gamma_t = c.tangential_damping.map(|g| g.si);
         let laws = match c.normal {
             NormalLawName::Hooke => {
-                let ratio = c.tangential_stiffness_ratio.map(|r| r.0).unwrap_or(2.0 / 7.0);
+                let ratio = c
+                    .tangential_stiffness_ratio
+                    .map(|r| r.0)
+                    .unwrap_or(2.0 / 7.0);
                 let kn = match (c.stiffness, c.contact_time) {
                     (Some(k), _) => k.si,
                     (None, Some(tc)) => {
@@ -324,7 +327,10 @@ impl DemConfig {
                 }
                 let slab = i.slab_length.map(|q| q.si).unwrap_or(3.0 * dmax);
                 if slab >= t.length {
-                    return Err(field_err("inlet.slab_length", "must be shorter than the tube"));
+                    return Err(field_err(
+                        "inlet.slab_length",
+                        "must be shorter than the tube",
+                    ));
                 }
                 let area = PI * t.radius * t.radius;
                 let porosity = i.porosity.0;

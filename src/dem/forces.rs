@@ -132,13 +132,9 @@ pub fn chunk_forces<N: NormalLaw, T: TangentialLaw>(
             let vn = dot(vrel, n);
             let vt = sub(vrel, scale(n, vn));
             let normal = laws.pp_normal.evaluate(m_eff, r_eff, overlap, vn);
-            let ft = laws.pp_tangential.force(
-                &normal,
-                vt,
-                n,
-                &mut out.history[k - hist_off],
-                set.dt,
-            );
+            let ft =
+                laws.pp_tangential
+                    .force(&normal, vt, n, &mut out.history[k - hist_off], set.dt);
             let f = sub(ft, scale(n, normal.force));
             add_assign(&mut fi, f);
             let (ti_add, tj_add) = if set.rotation {

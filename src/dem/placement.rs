@@ -60,7 +60,10 @@ impl Region {
                     }
                 };
                 let s = rng.range(from + r, to - r);
-                Some(add(add(add(*origin, scale(*axis, s)), scale(e1, u)), scale(e2, v)))
+                Some(add(
+                    add(add(*origin, scale(*axis, s)), scale(e1, u)),
+                    scale(e2, v),
+                ))
             }
             Region::Box { lo, hi } => {
                 let mut x = [0.0; 3];

@@ -68,13 +68,15 @@ impl Scene {
         let file: SceneFile = serde_path_to_error::deserialize(value).map_err(|e| {
             let path = e.path().to_string();
             let inner = e.into_inner().to_string();
-            let reason = inner
-                .lines()
-                .next()
-                .unwrap_or_default()
-                .trim()
-                .to_string();
-            SceneError::field(if path == "." { "(top level)".into() } else { path }, reason)
+            let reason = inner.lines().next().unwrap_or_default().trim().to_string();
+            SceneError::field(
+                if path == "." {
+                    "(top level)".into()
+                } else {
+                    path
+                },
+                reason,
+            )
         })?;
         check(&file)?;
         Ok(Scene {
@@ -97,7 +99,10 @@ fn apply_override(table: &mut toml::Table, spec: &str) -> Result<(), SceneError>
         .ok_or_else(|| SceneError::Override(spec.into(), "expected path.to.field=value".into()))?;
     let path = path.trim();
     if path.is_empty() || path.split('.').any(|p| p.is_empty()) {
-        return Err(SceneError::Override(spec.into(), "empty path segment".into()));
+        return Err(SceneError::Override(
+            spec.into(),
+            "empty path segment".into(),
+        ));
     }
     let raw = raw.trim();
     let value: toml::Value = match toml::from_str::<toml::Table>(&format!("v = {raw}")) {
@@ -136,7 +141,10 @@ fn check(f: &SceneFile) -> Result<(), SceneError> {
         ));
     }
     if f.name.trim().is_empty() || f.name.contains(['/', '\\']) {
-        return Err(field_err("name", "must be a non-empty name without path separators"));
+        return Err(field_err(
+            "name",
+            "must be a non-empty name without path separators",
+        ));
     }
     if f.duration.si <= 0.0 {
         return Err(field_err("duration", "must be positive"));
@@ -228,7 +236,10 @@ fn check(f: &SceneFile) -> Result<(), SceneError> {
             }
             if let Some(r) = c.tangential_stiffness_ratio {
                 if r.0 <= 0.0 {
-                    return Err(field_err("contact.tangential_stiffness_ratio", "must be positive"));
+                    return Err(field_err(
+                        "contact.tangential_stiffness_ratio",
+                        "must be positive",
+                    ));
                 }
             }
         }
@@ -239,9 +250,9 @@ fn check(f: &SceneFile) -> Result<(), SceneError> {
             if e.si <= 0.0 {
                 return Err(field_err("contact.youngs_modulus", "must be positive"));
             }
-            let nu = c
-                .poisson_ratio
-                .ok_or_else(|| field_err("contact.poisson_ratio", "missing: the hertz law needs it"))?;
+            let nu = c.poisson_ratio.ok_or_else(|| {
+                field_err("contact.poisson_ratio", "missing: the hertz law needs it")
+            })?;
             if !(0.0..0.5).contains(&nu.0) {
                 return Err(field_err("contact.poisson_ratio", "must lie in [0, 0.5)"));
             }
@@ -275,10 +286,7 @@ fn check(f: &SceneFile) -> Result<(), SceneError> {
     if d.engine != "native" {
         return Err(field_err(
             "dem.engine",
-            format!(
-                "unknown engine `{}` (this build has: native)",
-                d.engine
-            ),
+            format!("unknown engine `{}` (this build has: native)", d.engine),
         ));
     }
     if let Some(dt) = d.dt {
@@ -370,9 +378,14 @@ fn check(f: &SceneFile) -> Result<(), SceneError> {
             (Some(m), None) if m.si <= 0.0 => {
                 return Err(field_err("inlet.mass_flow", "must be positive"))
             }
-            (None, Some(r)) if r.si <= 0.0 => return Err(field_err("inlet.rate", "must be positive")),
+            (None, Some(r)) if r.si <= 0.0 => {
+                return Err(field_err("inlet.rate", "must be positive"))
+            }
             (Some(_), Some(_)) => {
-                return Err(field_err("inlet.rate", "give `mass_flow` or `rate`, not both"))
+                return Err(field_err(
+                    "inlet.rate",
+                    "give `mass_flow` or `rate`, not both",
+                ))
             }
             (None, None) => {
                 return Err(field_err(
@@ -402,7 +415,10 @@ fn check(f: &SceneFile) -> Result<(), SceneError> {
     }
     if let Some(ini) = &f.initial {
         if ini.to.si <= ini.from.si {
-            return Err(field_err("initial.to", "must be greater than `initial.from`"));
+            return Err(field_err(
+                "initial.to",
+                "must be greater than `initial.from`",
+            ));
         }
     }
     if f.output.sample_interval.si <= 0.0 {

@@ -33,28 +33,117 @@ macro_rules! dimension {
     };
 }
 
-dimension!(Length, "length", [("m", 1.0), ("cm", 1e-2), ("mm", 1e-3), ("um", 1e-6), ("µm", 1e-6)]);
-dimension!(Time, "time", [("s", 1.0), ("ms", 1e-3), ("us", 1e-6), ("µs", 1e-6), ("min", 60.0), ("h", 3600.0)]);
-dimension!(Density, "mass density", [
-    ("kg/m^3", 1.0), ("kg/m3", 1.0), ("kg/m³", 1.0), ("g/cm^3", 1e3), ("g/cm3", 1e3), ("g/cm³", 1e3)
-]);
-dimension!(MassFlow, "mass flow", [
-    ("kg/s", 1.0), ("kg/h", 1.0 / 3600.0), ("g/s", 1e-3), ("g/min", 1e-3 / 60.0), ("kg/min", 1.0 / 60.0)
-]);
-dimension!(Rate, "rate (per time)", [("1/s", 1.0), ("particles/s", 1.0), ("grains/s", 1.0), ("Hz", 1.0), ("1/min", 1.0 / 60.0)]);
-dimension!(Velocity, "velocity", [("m/s", 1.0), ("cm/s", 1e-2), ("mm/s", 1e-3)]);
-dimension!(Acceleration, "acceleration", [("m/s^2", 1.0), ("m/s2", 1.0), ("m/s²", 1.0), ("g", 9.80665)]);
-dimension!(Pressure, "pressure or elastic modulus", [
-    ("Pa", 1.0), ("hPa", 1e2), ("kPa", 1e3), ("MPa", 1e6), ("GPa", 1e9), ("bar", 1e5), ("mbar", 1e2), ("atm", 101_325.0)
-]);
-dimension!(Viscosity, "dynamic viscosity", [
-    ("Pa*s", 1.0), ("Pas", 1.0), ("mPa*s", 1e-3), ("cP", 1e-3), ("P", 0.1)
-]);
-dimension!(VolumeFlow, "volume flow", [
-    ("m^3/s", 1.0), ("m3/s", 1.0), ("m³/s", 1.0), ("l/min", 1e-3 / 60.0), ("L/min", 1e-3 / 60.0), ("l/s", 1e-3), ("L/s", 1e-3)
-]);
+dimension!(
+    Length,
+    "length",
+    [
+        ("m", 1.0),
+        ("cm", 1e-2),
+        ("mm", 1e-3),
+        ("um", 1e-6),
+        ("µm", 1e-6)
+    ]
+);
+dimension!(
+    Time,
+    "time",
+    [
+        ("s", 1.0),
+        ("ms", 1e-3),
+        ("us", 1e-6),
+        ("µs", 1e-6),
+        ("min", 60.0),
+        ("h", 3600.0)
+    ]
+);
+dimension!(
+    Density,
+    "mass density",
+    [
+        ("kg/m^3", 1.0),
+        ("kg/m3", 1.0),
+        ("kg/m³", 1.0),
+        ("g/cm^3", 1e3),
+        ("g/cm3", 1e3),
+        ("g/cm³", 1e3)
+    ]
+);
+dimension!(
+    MassFlow,
+    "mass flow",
+    [
+        ("kg/s", 1.0),
+        ("kg/h", 1.0 / 3600.0),
+        ("g/s", 1e-3),
+        ("g/min", 1e-3 / 60.0),
+        ("kg/min", 1.0 / 60.0)
+    ]
+);
+dimension!(
+    Rate,
+    "rate (per time)",
+    [
+        ("1/s", 1.0),
+        ("particles/s", 1.0),
+        ("grains/s", 1.0),
+        ("Hz", 1.0),
+        ("1/min", 1.0 / 60.0)
+    ]
+);
+dimension!(
+    Velocity,
+    "velocity",
+    [("m/s", 1.0), ("cm/s", 1e-2), ("mm/s", 1e-3)]
+);
+dimension!(
+    Acceleration,
+    "acceleration",
+    [("m/s^2", 1.0), ("m/s2", 1.0), ("m/s²", 1.0), ("g", 9.80665)]
+);
+dimension!(
+    Pressure,
+    "pressure or elastic modulus",
+    [
+        ("Pa", 1.0),
+        ("hPa", 1e2),
+        ("kPa", 1e3),
+        ("MPa", 1e6),
+        ("GPa", 1e9),
+        ("bar", 1e5),
+        ("mbar", 1e2),
+        ("atm", 101_325.0)
+    ]
+);
+dimension!(
+    Viscosity,
+    "dynamic viscosity",
+    [
+        ("Pa*s", 1.0),
+        ("Pas", 1.0),
+        ("mPa*s", 1e-3),
+        ("cP", 1e-3),
+        ("P", 0.1)
+    ]
+);
+dimension!(
+    VolumeFlow,
+    "volume flow",
+    [
+        ("m^3/s", 1.0),
+        ("m3/s", 1.0),
+        ("m³/s", 1.0),
+        ("l/min", 1e-3 / 60.0),
+        ("L/min", 1e-3 / 60.0),
+        ("l/s", 1e-3),
+        ("L/s", 1e-3)
+    ]
+);
 dimension!(Stiffness, "stiffness", [("N/m", 1.0), ("kN/m", 1e3)]);
-dimension!(Damping, "damping coefficient", [("kg/s", 1.0), ("N*s/m", 1.0), ("Ns/m", 1.0)]);
+dimension!(
+    Damping,
+    "damping coefficient",
+    [("kg/s", 1.0), ("N*s/m", 1.0), ("Ns/m", 1.0)]
+);
 
 /// Parse `text` as a quantity of dimension `D`, returning its SI value.
 pub fn parse_quantity<D: Dimension>(text: &str) -> Result<Real, String> {
@@ -79,12 +168,10 @@ pub fn parse_quantity<D: Dimension>(text: &str) -> Result<Real, String> {
         .map(|(i, _)| i)
         .unwrap_or(t.len());
     let (num, unit) = t.split_at(split);
-    let value: Real = num.trim().parse().map_err(|_| {
-        format!(
-            "`{text}` is not a number followed by a {} unit",
-            D::NAME
-        )
-    })?;
+    let value: Real = num
+        .trim()
+        .parse()
+        .map_err(|_| format!("`{text}` is not a number followed by a {} unit", D::NAME))?;
     if !value.is_finite() {
         return Err(format!("`{text}` is not a finite number"));
     }
@@ -188,13 +275,31 @@ mod tests {
     fn paper_spellings_convert_to_si() {
         let close = |a: Real, b: Real| (a - b).abs() <= 1e-12 * b.abs();
         assert!(close(parse_quantity::<Length>("1.4 mm").unwrap(), 1.4e-3));
-        assert!(close(parse_quantity::<Density>("937 kg/m^3").unwrap(), 937.0));
-        assert!(close(parse_quantity::<MassFlow>("2.49 kg/h").unwrap(), 2.49 / 3600.0));
-        assert!(close(parse_quantity::<VolumeFlow>("2.3 l/min").unwrap(), 2.3e-3 / 60.0));
-        assert!(close(parse_quantity::<Viscosity>("0.0673 cP").unwrap(), 6.73e-5));
-        assert!(close(parse_quantity::<Pressure>("1013.25 hPa").unwrap(), 101_325.0));
+        assert!(close(
+            parse_quantity::<Density>("937 kg/m^3").unwrap(),
+            937.0
+        ));
+        assert!(close(
+            parse_quantity::<MassFlow>("2.49 kg/h").unwrap(),
+            2.49 / 3600.0
+        ));
+        assert!(close(
+            parse_quantity::<VolumeFlow>("2.3 l/min").unwrap(),
+            2.3e-3 / 60.0
+        ));
+        assert!(close(
+            parse_quantity::<Viscosity>("0.0673 cP").unwrap(),
+            6.73e-5
+        ));
+        assert!(close(
+            parse_quantity::<Pressure>("1013.25 hPa").unwrap(),
+            101_325.0
+        ));
         assert!(close(parse_quantity::<Time>("5e-6 s").unwrap(), 5e-6));
-        assert!(close(parse_quantity::<Viscosity>("1.8e-5 Pa·s").unwrap(), 1.8e-5));
+        assert!(close(
+            parse_quantity::<Viscosity>("1.8e-5 Pa·s").unwrap(),
+            1.8e-5
+        ));
         assert!(close(parse_quantity::<Length>("3.5mm").unwrap(), 3.5e-3));
         assert!(close(parse_quantity::<Length>("0.525").unwrap(), 0.525));
     }

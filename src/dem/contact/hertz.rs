@@ -45,7 +45,8 @@ impl NormalLaw for Hertz {
         // α sqrt(m K_n) δ^{1/4} = α/sqrt(1.5) · sqrt(m dF/dδ).
         let c = self.alpha * (2.0_f64 / 3.0).sqrt();
         let gamma_n = c * (m_eff * kn_tangent).sqrt();
-        let gamma_t = c * (m_eff * kt).sqrt();
+        // k_t / (dF_n/dδ) = 4 G*/Y* is constant, so γ_t = γ_n sqrt(4 G*/Y*).
+        let gamma_t = gamma_n * (4.0 * self.g_star / self.y_star).sqrt();
         NormalOut {
             force: (4.0 / 3.0) * self.y_star * sqrt_rd * overlap + gamma_n * vn,
             kt,

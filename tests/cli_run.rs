@@ -1,0 +1,119 @@
+//! `plugflow run` end to end: the summary has the keys the issue names, and a run that
+//! blows up stops with the step and grain and still writes its summary.
+
+use std::path::Path;
+use std::process::Command;
+
+fn plugflow(args: &[&str]) -> (i32, String) {
+    let o = Command::new(env!("CARGO_BIN_EXE_plugflow"))
+        .args(args)
+        .output()
+        .unwrap();
+    (
+        o.status.code().unwrap_or(-1),
+        format!(
+            "{}{}",
+            String::from_utf8_lossy(&o.stdout),
+            String::from_utf8_lossy(&o.stderr)
+        ),
+    )
+}
+
+#[test]
+fn run_writes_summary_with_required_keys() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let out = std::env::temp_dir().join(format!("plugflow-cli-{}", std::process::id()));
+    let case = root.join("cases/vertical_dry_feed.toml");
+    let (code, text) = plugflow(&[
+        "run",
+        case.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+        "--duration",
+        "0.6",
+        "--set",
+        "output.settling_time=0.4 s",
+        "--quiet",
+    ]);
+    assert_eq!(code, 0, "{text}");
+    let s: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
+    for key in [
+        "engine",
+        "simulated_time_s",
+        "wall_time_s",
+        "stage_times_s",
+        "particles_in_tube_mean",
+        "mass_outflow_kg_per_h",
+    ] {
+        assert!(s.get(key).is_some(), "summary lacks `{key}`: {s}");
+    }
+    assert_eq!(s["engine"], "native");
+    assert!((s["simulated_time_s"].as_f64().unwrap() - 0.6).abs() < 1e-6);
+    let stages = s["stage_times_s"].as_object().unwrap();
+    for st in ["forces", "integrate", "neighbor", "inlet_outlet"] {
+        assert!(stages.contains_key(st), "stage `{st}` missing: {stages:?}");
+    }
+    // Grains fall 0.525 m in ~0.3 s, so after 0.4 s the outflow runs at the feed rate.
+    // The window is 0.2 s (~100 grains), so ±25 % covers the counting noise.
+    let outflow = s["mass_outflow_kg_per_h"].as_f64().unwrap();
+    assert!(
+        (outflow - 2.49).abs() < 0.25 * 2.49,
+        "outflow {outflow} kg/h"
+    );
+    assert!(s["particles_in_tube_mean"].as_f64().unwrap() > 50.0);
+    std::fs::remove_dir_all(&out).ok();
+}
+
+#[test]
+fn blow_up_stops_with_step_and_grain_and_keeps_the_summary() {
+    // A grain moving at 1e5 m/s: above the blow-up speed, caught at the first half kick.
+    let dir = std::env::temp_dir().join(format!("plugflow-blowup-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let scene = dir.join("blowup.toml");
+    std::fs::write(
+        &scene,
+        r#"schema_version = 1
+name = "blowup"
+duration = "0.01 s"
+gravity = [0, 0, -9.81]
+[domain]
+min = [-0.01, -0.01, -0.01]
+max = [0.01, 0.01, 0.01]
+[particles]
+diameter = "1.4 mm"
+density = "937 kg/m^3"
+[contact]
+normal = "hooke"
+contact_time = "1e-4 s"
+friction = 0.5
+restitution = 0.5
+[initial]
+count = 2
+from = "-0.005 m"
+to = "0.005 m"
+velocity = [0, 0, "-1e5 m/s"]
+[[walls]]
+name = "floor"
+point = [0, 0, -0.009]
+normal = [0, 0, 1]
+"#,
+    )
+    .unwrap();
+    let out = dir.join("out");
+    let (code, text) = plugflow(&[
+        "run",
+        scene.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+        "--quiet",
+    ]);
+    assert_eq!(code, 1, "{text}");
+    assert!(
+        text.contains("blown-up state at step 1:") && text.contains("particle id"),
+        "{text}"
+    );
+    let s = std::fs::read_to_string(out.join("summary.json")).unwrap();
+    assert!(s.contains("failed: run stopped"), "{s}");
+    std::fs::remove_dir_all(&dir).ok();
+}
