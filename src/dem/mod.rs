@@ -501,7 +501,9 @@ impl NativeDem {
         }
         let bad = (0..s.len())
             .find(|&i| {
-                !(norm2(s.velocity[i]) < BLOWUP_SPEED * BLOWUP_SPEED)
+                let speed2 = norm2(s.velocity[i]);
+                speed2.is_nan()
+                    || speed2 >= BLOWUP_SPEED * BLOWUP_SPEED
                     || !is_finite(s.position[i])
                     || !is_finite(s.angular_velocity[i])
             })
