@@ -5,4 +5,8 @@ cd "$(dirname "$0")/.."
 bash scripts/setup-system.sh
 cargo fmt --all -- --check
 cargo clippy --workspace --all-targets --release -- -D warnings
-cargo test --workspace --release
+log=$(mktemp)
+# Unit and integration tests (the benchmark is not a test: cargo bench --bench dem_bench).
+cargo test --workspace --release --lib --bins --tests 2>&1 | tee "$log"
+# One closing line with the totals of every test binary.
+awk '/^test result:/ { p += $4; f += $6 } END { printf "%d passed, %d failed\n", p, f }' "$log"
