@@ -327,16 +327,16 @@ impl NativeDem {
             let (v, f) = (s.velocity[i], s.force[i]);
             [v[0] + f[0] * a, v[1] + f[1] * a, v[2] + f[2] * a]
         }));
-        self.angular_velocity_pred.clear();
         if self.cfg.rotation {
+            self.angular_velocity_pred.clear();
             self.angular_velocity_pred.extend((0..s.len()).map(|i| {
                 let b = s.inv_inertia[i] * h;
                 let (w, t) = (s.angular_velocity[i], s.torque[i]);
                 [w[0] + t[0] * b, w[1] + t[1] * b, w[2] + t[2] * b]
             }));
         } else {
-            self.angular_velocity_pred
-                .extend_from_slice(&s.angular_velocity);
+            // No rotation: the force loop never reads these; keep the length right only.
+            self.angular_velocity_pred.resize(s.len(), [0.0; 3]);
         }
     }
 
