@@ -67,7 +67,12 @@ fn main() {
         let t = Instant::now();
         d.advance(steps).unwrap();
         let secs = t.elapsed().as_secs_f64();
-        eprintln!("  stages ({threads} threads): {:?}", d.stage_times());
+        eprintln!(
+            "  stages ({threads} threads): {:?}; {} pairs in the neighbour list, {} builds",
+            d.stage_times(),
+            d.neighbor_pairs(),
+            d.neighbor_builds()
+        );
         bed.len() as f64 * steps as f64 / secs
     };
     let n1 = native(1);

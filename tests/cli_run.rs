@@ -1,6 +1,8 @@
 //! `plugflow run` end to end: the summary has the keys the issue names, and a run that
 //! blows up stops with the step and grain and still writes its summary.
 
+mod common;
+use common::{box_scene, HOOKE};
 use std::path::Path;
 use std::process::Command;
 
@@ -71,35 +73,14 @@ fn blow_up_stops_with_step_and_grain_and_keeps_the_summary() {
     let dir = std::env::temp_dir().join(format!("plugflow-blowup-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     let scene = dir.join("blowup.toml");
-    std::fs::write(
-        &scene,
-        r#"schema_version = 1
-name = "blowup"
-duration = "0.01 s"
-gravity = [0, 0, -9.81]
-[domain]
-min = [-0.01, -0.01, -0.01]
-max = [0.01, 0.01, 0.01]
-[particles]
-diameter = "1.4 mm"
-density = "937 kg/m^3"
-[contact]
-normal = "hooke"
-contact_time = "1e-4 s"
-friction = 0.5
-restitution = 0.5
-[initial]
-count = 2
-from = "-0.005 m"
-to = "0.005 m"
-velocity = [0, 0, "-1e5 m/s"]
-[[walls]]
-name = "floor"
-point = [0, 0, -0.009]
-normal = [0, 0, 1]
-"#,
-    )
-    .unwrap();
+    let text = box_scene(
+        "[0, 0, -9.81]",
+        HOOKE,
+        "[initial]\ncount = 2\nfrom = \"-0.005 m\"\nto = \"0.005 m\"\n\
+         velocity = [0, 0, \"-1e5 m/s\"]\n\
+         [[walls]]\nname = \"floor\"\npoint = [0, 0, -0.009]\nnormal = [0, 0, 1]",
+    );
+    std::fs::write(&scene, text).unwrap();
     let out = dir.join("out");
     let (code, text) = plugflow(&[
         "run",

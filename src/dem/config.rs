@@ -37,7 +37,7 @@ impl LawSet {
 }
 
 /// Tube geometry in engine terms.
-#[derive(Debug, Clone)]
+#[derive(Debug, Clone, Copy)]
 pub struct TubeGeometry {
     /// Centre of the inlet end, m.
     pub origin: Vec3,
@@ -54,7 +54,7 @@ pub struct TubeGeometry {
 }
 
 /// The inlet in engine terms.
-#[derive(Debug, Clone)]
+#[derive(Debug, Clone, Copy)]
 pub struct InletConfig {
     /// Grains per second.
     pub rate: Real,

@@ -35,8 +35,21 @@ pub struct GrainsIn<'a> {
     pub external_force: &'a [Vec3],
 }
 
+/// Effective mass and radius of every grain pair when all grains are alike.
+#[derive(Debug, Clone, Copy)]
+pub struct UniformPair {
+    /// sqrt(m*), kg^½.
+    pub sqrt_m_eff: Real,
+    /// r* = r/2, m.
+    pub r_eff: Real,
+    /// sqrt(m) of one grain (grain–wall pairs), kg^½.
+    pub sqrt_m: Real,
+}
+
 /// Settings shared by all chunks of one step.
 pub struct StepSettings<'a> {
+    /// Set when all grains have one size and density: pair constants need no division.
+    pub uniform: Option<UniformPair>,
     pub walls: &'a [Wall],
     pub gravity: Vec3,
     pub dt: Real,
@@ -117,9 +130,13 @@ pub fn chunk_forces<N: NormalLaw, T: TangentialLaw>(
             let dist = dist2.sqrt();
             let n = scale(d, 1.0 / dist);
             let overlap = rs - dist;
-            let mj = g.mass[j];
-            let m_eff = mi * mj / (mi + mj);
-            let r_eff = ri * rj / rs;
+            let (sqrt_m_eff, r_eff) = match set.uniform {
+                Some(u) => (u.sqrt_m_eff, u.r_eff),
+                None => {
+                    let mj = g.mass[j];
+                    ((mi * mj / (mi + mj)).sqrt(), ri * rj / rs)
+                }
+            };
             let mut vrel = sub(vi, g.velocity[j]);
             if set.rotation {
                 let wsum = [
@@ -131,7 +148,7 @@ pub fn chunk_forces<N: NormalLaw, T: TangentialLaw>(
             }
             let vn = dot(vrel, n);
             let vt = sub(vrel, scale(n, vn));
-            let normal = laws.pp_normal.evaluate(m_eff, r_eff, overlap, vn);
+            let normal = laws.pp_normal.evaluate(sqrt_m_eff, r_eff, overlap, vn);
             let ft =
                 laws.pp_tangential
                     .force(&normal, vt, n, &mut out.history[k - hist_off], set.dt);
@@ -170,7 +187,11 @@ pub fn chunk_forces<N: NormalLaw, T: TangentialLaw>(
                     }
                     let vn = dot(vrel, n);
                     let vt = sub(vrel, scale(n, vn));
-                    let normal = laws.pw_normal.evaluate(mi, ri, overlap, vn);
+                    let sqrt_mi = match set.uniform {
+                        Some(u) => u.sqrt_m,
+                        None => mi.sqrt(),
+                    };
+                    let normal = laws.pw_normal.evaluate(sqrt_mi, ri, overlap, vn);
                     let ft = laws.pw_tangential.force(
                         &normal,
                         vt,

@@ -10,6 +10,7 @@ pub mod forces;
 pub mod neighbor;
 pub mod placement;
 pub mod state;
+pub mod team;
 pub mod vec3;
 pub mod walls;
 
@@ -22,10 +23,11 @@ use plugflow_coupling::{
 };
 
 use self::contact::{NormalLaw, TangentialLaw};
-use self::forces::{chunk_forces, ChunkOut, GrainsIn, Laws, Spill, StepSettings};
+use self::forces::{chunk_forces, ChunkOut, GrainsIn, Laws, Spill, StepSettings, UniformPair};
 use self::neighbor::{CellGrid, NeighborList};
 use self::placement::{place, Region};
 use self::state::ParticleState;
+use self::team::{Shared, Team};
 use self::vec3::{dot, is_finite, norm2, scale, sub};
 use crate::rng::Rng;
 use crate::{Real, Vec3};
@@ -74,7 +76,13 @@ pub struct NativeDem {
     chunk_wall_force: Vec<Vec<Vec3>>,
     spills: Vec<Vec<Spill>>,
     timer: StageTimer,
-    pool: Option<rayon::ThreadPool>,
+    /// Pair constants while every grain has the scene's one size and density.
+    uniform: Option<UniformPair>,
+    /// Chunk boundaries (threads + 1 entries), fixed between neighbour builds.
+    bounds: Vec<usize>,
+    /// Per chunk: (all speeds finite and below the blow-up speed, largest squared
+    /// displacement since the last neighbour build).
+    chunk_result: Vec<(bool, Real)>,
     /// Scratch: velocities predicted to t + dt for the velocity-dependent forces.
     velocity_pred: Vec<Vec3>,
     /// Scratch: angular velocities predicted to t + dt.
@@ -85,16 +93,6 @@ impl NativeDem {
     /// Build the engine from a checked configuration and place the initial grains.
     pub fn new(cfg: DemConfig) -> Result<Self, crate::scene::SceneError> {
         let grid = CellGrid::new(cfg.box_lo, cfg.box_hi, 2.0 * cfg.radius_max + cfg.skin);
-        let pool = if cfg.threads > 1 {
-            Some(
-                rayon::ThreadPoolBuilder::new()
-                    .num_threads(cfg.threads)
-                    .build()
-                    .map_err(|e| crate::scene::SceneError::field("dem.threads", e.to_string()))?,
-            )
-        } else {
-            None
-        };
         let nw = cfg.walls.len();
         let mut dem = NativeDem {
             rng: Rng::new(cfg.seed),
@@ -110,7 +108,17 @@ impl NativeDem {
             chunk_wall_force: vec![vec![[0.0; 3]; nw]; cfg.threads],
             spills: vec![Vec::new(); cfg.threads],
             timer: StageTimer::new(),
-            pool,
+            uniform: (cfg.radius_min == cfg.radius_max).then(|| {
+                let r = cfg.radius_min;
+                let m = cfg.density * 4.0 / 3.0 * std::f64::consts::PI * r * r * r;
+                UniformPair {
+                    sqrt_m_eff: (0.5 * m).sqrt(),
+                    r_eff: 0.5 * r,
+                    sqrt_m: m.sqrt(),
+                }
+            }),
+            bounds: Vec::new(),
+            chunk_result: vec![(true, 0.0); cfg.threads],
             velocity_pred: Vec::new(),
             angular_velocity_pred: Vec::new(),
             cfg,
@@ -142,6 +150,11 @@ impl NativeDem {
     /// The configuration in force.
     pub fn config(&self) -> &DemConfig {
         &self.cfg
+    }
+
+    /// Pairs in the neighbour list (within contact distance + skin).
+    pub fn neighbor_pairs(&self) -> usize {
+        self.nlist.partner.len()
     }
 
     /// Neighbour-list builds so far.
@@ -191,14 +204,29 @@ impl NativeDem {
         self.nlist
             .rebuild(&mut self.state, &self.grid, self.cfg.skin, nw, keep);
         self.rebuild_pending = false;
+        // Contiguous ranges with about equal pair + grain counts per thread.
+        let n = self.state.len();
+        let chunks = self.cfg.threads;
+        let start = &self.nlist.start;
+        let total = self.nlist.partner.len() + n;
+        self.bounds.clear();
+        self.bounds.push(0);
+        for i in 0..n {
+            if self.bounds.len() < chunks
+                && start[i] as usize + i >= total * self.bounds.len() / chunks
+            {
+                self.bounds.push(i);
+            }
+        }
+        while self.bounds.len() < chunks {
+            self.bounds.push(n);
+        }
+        self.bounds.push(n);
     }
 
     /// Feed a batch when grains are owed and the inlet slab is clear.
     fn feed(&mut self, elapsed: Real) {
-        let Some(inlet) = self.cfg.inlet.clone() else {
-            return;
-        };
-        let Some(tube) = self.cfg.tube.clone() else {
+        let (Some(inlet), Some(tube)) = (self.cfg.inlet, self.cfg.tube) else {
             return;
         };
         self.flow.inlet_backlog += inlet.rate * elapsed;
@@ -248,41 +276,47 @@ impl NativeDem {
         }
     }
 
+    /// Where grain i goes: stays, leaves through the outlet, or is lost.
+    fn leave_verdict(&self, i: usize) -> Leave {
+        let x = self.state.position[i];
+        let r = self.state.radius[i];
+        match &self.cfg.tube {
+            Some(t) => {
+                let rel = sub(x, t.origin);
+                let s = dot(rel, t.axis);
+                let radial2 = norm2(sub(rel, scale(t.axis, s)));
+                if t.outlet_open && s > t.length {
+                    Leave::Outlet
+                } else if (t.inlet_open && s < 0.0)
+                    || radial2 > (t.radius + 2.0 * r).powi(2)
+                    || s < -t.length
+                    || s > 2.0 * t.length
+                {
+                    Leave::Lost
+                } else {
+                    Leave::Stay
+                }
+            }
+            None => {
+                if (0..3).any(|k| x[k] < self.cfg.box_lo[k] || x[k] > self.cfg.box_hi[k]) {
+                    Leave::Lost
+                } else {
+                    Leave::Stay
+                }
+            }
+        }
+    }
+
     /// Remove grains past open ends, outside the box, or escaped from the tube.
     fn remove_leaving(&mut self) -> Real {
-        let mut keep: Vec<usize> = Vec::with_capacity(self.state.len());
+        let n = self.state.len();
+        if (0..n).all(|i| matches!(self.leave_verdict(i), Leave::Stay)) {
+            return 0.0;
+        }
+        let mut keep: Vec<usize> = Vec::with_capacity(n);
         let mut out_mass = 0.0;
-        for i in 0..self.state.len() {
-            let x = self.state.position[i];
-            let r = self.state.radius[i];
-            let verdict = match &self.cfg.tube {
-                Some(t) => {
-                    let rel = sub(x, t.origin);
-                    let s = dot(rel, t.axis);
-                    let radial2 = norm2(sub(rel, scale(t.axis, s)));
-                    if t.outlet_open && s > t.length {
-                        Leave::Outlet
-                    } else if (t.inlet_open && s < 0.0)
-                        || radial2 > (t.radius + 2.0 * r).powi(2)
-                        || s < -t.length
-                        || s > 2.0 * t.length
-                    {
-                        Leave::Lost
-                    } else {
-                        Leave::Stay
-                    }
-                }
-                None => {
-                    let outside =
-                        (0..3).any(|k| x[k] < self.cfg.box_lo[k] || x[k] > self.cfg.box_hi[k]);
-                    if outside {
-                        Leave::Lost
-                    } else {
-                        Leave::Stay
-                    }
-                }
-            };
-            match verdict {
+        for i in 0..n {
+            match self.leave_verdict(i) {
                 Leave::Stay => keep.push(i),
                 Leave::Outlet => {
                     self.flow.outflow_count += 1;
@@ -292,34 +326,58 @@ impl NativeDem {
                 Leave::Lost => self.flow.lost_count += 1,
             }
         }
-        if keep.len() != self.state.len() {
-            if self.cfg.laws.uses_history() {
-                self.nlist.stash_history(&self.state);
-            }
-            let nw = self.cfg.walls.len();
-            self.state.permute(&keep, nw);
-            self.rebuild_pending = true;
+        if self.cfg.laws.uses_history() {
+            self.nlist.stash_history(&self.state);
         }
+        let nw = self.cfg.walls.len();
+        self.state.permute(&keep, nw);
+        self.rebuild_pending = true;
         out_mass
     }
 
-    /// Forces on all grains for the current positions (and half-step velocities).
-    fn compute_forces(&mut self) {
-        match self.cfg.laws.clone() {
-            LawSet::HookeHistory(l) => self.forces_with(&l),
-            LawSet::HookeCoulomb(l) => self.forces_with(&l),
-            LawSet::HertzHistory(l) => self.forces_with(&l),
-            LawSet::HertzCoulomb(l) => self.forces_with(&l),
+    /// Forces on all grains for the current positions and predicted velocities.
+    fn compute_forces(&mut self, team: &Team) {
+        let NativeDem {
+            cfg,
+            state,
+            nlist,
+            bounds,
+            spills,
+            chunk_wall_force,
+            wall_force,
+            velocity_pred,
+            angular_velocity_pred,
+            uniform,
+            ..
+        } = self;
+        let job = ForceJob {
+            uniform: *uniform,
+            cfg,
+            state,
+            nlist,
+            bounds,
+            spills,
+            chunk_wall_force,
+            wall_force,
+            velocity_pred,
+            angular_velocity_pred,
+        };
+        match &cfg.laws {
+            LawSet::HookeHistory(l) => job.run(l, team),
+            LawSet::HookeCoulomb(l) => job.run(l, team),
+            LawSet::HertzHistory(l) => job.run(l, team),
+            LawSet::HertzCoulomb(l) => job.run(l, team),
         }
     }
 
-    /// Velocities at t + dt predicted from the half-step ones with the last accelerations,
-    /// v(t+dt) ≈ v(t+dt/2) + a(t) dt/2. The dashpots see these rather than the half-step
-    /// velocities of plain velocity-Verlet, whose lag of dt/2 over-damps every collision by
-    /// O(dt/t_c) (e = 0.5 came out as 0.493 at t_c/50; with the predictor the error is
-    /// O((dt/t_c)²)).
-    fn predict_velocities(&mut self) {
-        let h = 0.5 * self.cfg.dt;
+    /// Velocities the dashpots see. Plain velocity-Verlet would hand them the half-step
+    /// velocities, whose lag of dt/2 over-damps every collision by O(dt/t_c) (e = 0.5 came
+    /// out as 0.493 at t_c/50); the integration phases predict v(t+dt) ≈ v(t+dt/2) + a(t) dt/2
+    /// instead, an O((dt/t_c)²) error. This serial version serves after a neighbour build
+    /// (which reorders grains) and at the start of `advance`, where `half_step` is false
+    /// because the velocities are already full-step ones.
+    fn predict_velocities(&mut self, half_step: bool) {
+        let h = if half_step { 0.5 * self.cfg.dt } else { 0.0 };
         let s = &self.state;
         self.velocity_pred.clear();
         self.velocity_pred.extend((0..s.len()).map(|i| {
@@ -340,165 +398,92 @@ impl NativeDem {
         }
     }
 
-    fn forces_with<N: NormalLaw, T: TangentialLaw>(&mut self, laws: &Laws<N, T>) {
-        self.predict_velocities();
-        let n = self.state.len();
-        let nw = self.cfg.walls.len();
-        let set = StepSettings {
-            walls: &self.cfg.walls,
-            gravity: self.cfg.gravity,
-            dt: self.cfg.dt,
-            rotation: self.cfg.rotation,
-        };
-        let s = &mut self.state;
-        let g = GrainsIn {
-            position: &s.position,
-            velocity: &self.velocity_pred,
-            angular_velocity: &self.angular_velocity_pred,
-            radius: &s.radius,
-            mass: &s.mass,
-            external_force: &s.external_force,
-        };
-        let start = &self.nlist.start;
-        let partner = &self.nlist.partner;
-        if self.nlist.history.len() != partner.len() {
-            self.nlist.history.resize(partner.len(), [0.0; 3]);
-        }
-        let chunks = self.cfg.threads.min(n.max(1));
-        // Split at grains so that each chunk gets about the same number of pairs + grains.
-        let mut bounds = vec![0usize];
-        if chunks > 1 {
-            let total = partner.len() + n;
-            let mut next = 1;
-            for i in 0..n {
-                if next < chunks && start[i] as usize + i >= total * next / chunks {
-                    bounds.push(i);
-                    next += 1;
-                }
-            }
-        }
-        while bounds.len() < chunks {
-            bounds.push(n);
-        }
-        bounds.push(n);
-        // Carve the writable arrays into per-chunk slices.
-        let mut outs: Vec<ChunkOut<'_>> = Vec::with_capacity(chunks);
-        let (mut f_rest, mut t_rest) = (&mut s.force[..], &mut s.torque[..]);
-        let mut h_rest = &mut self.nlist.history[..];
-        let mut wh_rest = &mut s.wall_history[..];
-        let mut spill_iter = self.spills.iter_mut();
-        let mut wf_iter = self.chunk_wall_force.iter_mut();
-        for c in 0..chunks {
-            let (lo, hi) = (bounds[c], bounds[c + 1]);
-            let (f, fr) = f_rest.split_at_mut(hi - lo);
-            let (t, tr) = t_rest.split_at_mut(hi - lo);
-            let hlen = (start[hi] - start[lo]) as usize;
-            let (h, hr) = h_rest.split_at_mut(hlen);
-            let (wh, whr) = wh_rest.split_at_mut((hi - lo) * nw);
-            f_rest = fr;
-            t_rest = tr;
-            h_rest = hr;
-            wh_rest = whr;
-            let spill = spill_iter.next().expect("one spill list per thread");
-            spill.clear();
-            outs.push(ChunkOut {
-                lo,
-                force: f,
-                torque: t,
-                history: h,
-                wall_history: wh,
-                spill,
-                wall_force: wf_iter.next().expect("one wall accumulator per thread"),
-            });
-        }
-        match (&self.pool, chunks) {
-            (Some(pool), c) if c > 1 => pool.install(|| {
-                use rayon::prelude::*;
-                outs.into_par_iter()
-                    .for_each(|out| chunk_forces(laws, &set, g, start, partner, out));
-            }),
-            _ => {
-                for out in outs {
-                    chunk_forces(laws, &set, g, start, partner, out);
-                }
-            }
-        }
-        // Apply spills in chunk order, then sum the wall forces in chunk order.
-        for spill in &self.spills[..chunks] {
-            for sp in spill {
-                let j = sp.j as usize;
-                vec3::add_assign(&mut s.force[j], sp.force);
-                if self.cfg.rotation {
-                    vec3::add_assign(&mut s.torque[j], sp.torque);
-                }
-            }
-        }
-        for w in 0..nw {
-            self.wall_force[w] = [0.0; 3];
-            for c in 0..chunks {
-                vec3::add_assign(&mut self.wall_force[w], self.chunk_wall_force[c][w]);
-            }
-        }
-    }
-
-    /// First half kick and drift; returns nothing, positions now at t + dt.
-    fn kick_drift(&mut self) {
+    /// One integration phase over all chunks; returns (all speeds sane, largest squared
+    /// displacement since the last neighbour build).
+    fn integrate(&mut self, team: &Team, phase: Phase) -> (bool, Real) {
         let dt = self.cfg.dt;
-        let h = 0.5 * dt;
+        let rotation = self.cfg.rotation;
         let s = &mut self.state;
-        for i in 0..s.len() {
-            let a = s.inv_mass[i] * h;
-            let v = &mut s.velocity[i];
-            let f = s.force[i];
-            v[0] += f[0] * a;
-            v[1] += f[1] * a;
-            v[2] += f[2] * a;
-            let x = &mut s.position[i];
-            x[0] += v[0] * dt;
-            x[1] += v[1] * dt;
-            x[2] += v[2] * dt;
-        }
-        if self.cfg.rotation {
-            for i in 0..s.len() {
-                let b = s.inv_inertia[i] * h;
-                let w = &mut s.angular_velocity[i];
-                let t = s.torque[i];
-                w[0] += t[0] * b;
-                w[1] += t[1] * b;
-                w[2] += t[2] * b;
+        let x_ref = self.nlist.reference_positions();
+        let track = x_ref.len() == s.len();
+        let cols = IntegrateColumns {
+            velocity: Shared::new(&mut s.velocity),
+            position: Shared::new(&mut s.position),
+            angular_velocity: Shared::new(&mut s.angular_velocity),
+            velocity_pred: Shared::new(&mut self.velocity_pred),
+            angular_velocity_pred: Shared::new(&mut self.angular_velocity_pred),
+            result: Shared::new(&mut self.chunk_result),
+        };
+        let (force, torque) = (&s.force, &s.torque);
+        let (inv_mass, inv_inertia) = (&s.inv_mass, &s.inv_inertia);
+        let bounds = &self.bounds;
+        team.run(&|c| {
+            let (lo, hi) = (bounds[c], bounds[c + 1]);
+            // SAFETY: the chunks [bounds[c], bounds[c+1]) are disjoint, and so is slot c.
+            let (v, x, w, vp, wp, res) = unsafe {
+                (
+                    cols.velocity.range(lo, hi),
+                    cols.position.range(lo, hi),
+                    cols.angular_velocity.range(lo, hi),
+                    cols.velocity_pred.range(lo, hi),
+                    cols.angular_velocity_pred.range(lo, hi),
+                    &mut cols.result.range(c, c + 1)[0],
+                )
+            };
+            let h = 0.5 * dt;
+            let (finish, start) = phase.parts();
+            let mut ok = true;
+            let mut disp2: Real = 0.0;
+            for k in 0..hi - lo {
+                let i = lo + k;
+                let a = inv_mass[i] * h;
+                let f = force[i];
+                let mut vi = v[k];
+                if finish {
+                    vi = [vi[0] + f[0] * a, vi[1] + f[1] * a, vi[2] + f[2] * a];
+                    // NaN compares false, so this also catches NaN and infinity.
+                    ok &= norm2(vi) < BLOWUP_SPEED * BLOWUP_SPEED;
+                }
+                if start {
+                    vi = [vi[0] + f[0] * a, vi[1] + f[1] * a, vi[2] + f[2] * a];
+                    let xi = &mut x[k];
+                    xi[0] += vi[0] * dt;
+                    xi[1] += vi[1] * dt;
+                    xi[2] += vi[2] * dt;
+                    vp[k] = [vi[0] + f[0] * a, vi[1] + f[1] * a, vi[2] + f[2] * a];
+                    if track {
+                        disp2 = disp2.max(norm2(sub(*xi, x_ref[i])));
+                    }
+                }
+                v[k] = vi;
             }
-        }
+            if rotation {
+                for k in 0..hi - lo {
+                    let i = lo + k;
+                    let b = inv_inertia[i] * h;
+                    let t = torque[i];
+                    let mut wi = w[k];
+                    if finish {
+                        wi = [wi[0] + t[0] * b, wi[1] + t[1] * b, wi[2] + t[2] * b];
+                        ok &= norm2(wi).is_finite();
+                    }
+                    if start {
+                        wi = [wi[0] + t[0] * b, wi[1] + t[1] * b, wi[2] + t[2] * b];
+                        wp[k] = [wi[0] + t[0] * b, wi[1] + t[1] * b, wi[2] + t[2] * b];
+                    }
+                    w[k] = wi;
+                }
+            }
+            *res = (ok, disp2);
+        });
+        self.chunk_result
+            .iter()
+            .fold((true, 0.0), |(ok, d), &(o, e)| (ok && o, d.max(e)))
     }
 
-    /// Second half kick; reports the first grain whose state stopped being finite.
-    fn kick(&mut self) -> Result<(), BackendError> {
-        let h = 0.5 * self.cfg.dt;
-        let s = &mut self.state;
-        let mut finite = true;
-        for i in 0..s.len() {
-            let a = s.inv_mass[i] * h;
-            let v = &mut s.velocity[i];
-            let f = s.force[i];
-            v[0] += f[0] * a;
-            v[1] += f[1] * a;
-            v[2] += f[2] * a;
-            // NaN compares false, so this also catches NaN and infinity.
-            finite &= v[0] * v[0] + v[1] * v[1] + v[2] * v[2] < BLOWUP_SPEED * BLOWUP_SPEED;
-        }
-        if self.cfg.rotation {
-            for i in 0..s.len() {
-                let b = s.inv_inertia[i] * h;
-                let w = &mut s.angular_velocity[i];
-                let t = s.torque[i];
-                w[0] += t[0] * b;
-                w[1] += t[1] * b;
-                w[2] += t[2] * b;
-                finite &= (w[0] + w[1] + w[2]).is_finite();
-            }
-        }
-        if finite {
-            return Ok(());
-        }
+    /// The error for the first grain whose state blew up.
+    fn blowup_error(&self) -> BackendError {
+        let s = &self.state;
         let bad = (0..s.len())
             .find(|&i| {
                 let speed2 = norm2(s.velocity[i]);
@@ -508,7 +493,7 @@ impl NativeDem {
                     || !is_finite(s.angular_velocity[i])
             })
             .unwrap_or(0);
-        Err(BackendError::NonFinite {
+        BackendError::NonFinite {
             step: self.step,
             particle_id: s.id.get(bad).copied().unwrap_or(0),
             what: format!(
@@ -516,7 +501,179 @@ impl NativeDem {
                  force {:?} (external {:?})",
                 s.position[bad], s.velocity[bad], s.force[bad], s.external_force[bad]
             ),
-        })
+        }
+    }
+
+    /// The steps of one `advance` call, with the team running.
+    fn advance_with(&mut self, steps: u64, team: &Team) -> Result<(), BackendError> {
+        let dt = self.cfg.dt;
+        let skin_limit2 = 0.25 * self.cfg.skin * self.cfg.skin;
+        if self.rebuild_pending {
+            let t0 = Instant::now();
+            self.rebuild();
+            self.predict_velocities(false);
+            self.timer.add("neighbor", t0.elapsed().as_secs_f64());
+            let t0 = Instant::now();
+            self.compute_forces(team);
+            self.timer.add("forces", t0.elapsed().as_secs_f64());
+        }
+        let t0 = Instant::now();
+        let (_, mut disp2) = self.integrate(team, Phase::KickDrift);
+        self.timer.add("integrate", t0.elapsed().as_secs_f64());
+        for k in 0..steps {
+            self.time += dt;
+            self.step += 1;
+            let t1 = Instant::now();
+            if self.step.is_multiple_of(FEED_STRIDE)
+                && (self.cfg.inlet.is_some() || self.cfg.removes_grains)
+            {
+                self.remove_leaving();
+                self.feed(FEED_STRIDE as Real * dt);
+            }
+            let t2 = Instant::now();
+            self.timer.add("inlet_outlet", (t2 - t1).as_secs_f64());
+            if self.rebuild_pending || disp2 > skin_limit2 {
+                self.rebuild();
+                self.predict_velocities(true);
+            }
+            let t3 = Instant::now();
+            self.timer.add("neighbor", (t3 - t2).as_secs_f64());
+            self.compute_forces(team);
+            let t4 = Instant::now();
+            self.timer.add("forces", (t4 - t3).as_secs_f64());
+            // The last half kick of this step and the first of the next use the same
+            // force, so they run as one pass except at the end of the call.
+            let phase = if k + 1 == steps {
+                Phase::Kick
+            } else {
+                Phase::KickKickDrift
+            };
+            let (ok, d) = self.integrate(team, phase);
+            self.timer.add("integrate", t4.elapsed().as_secs_f64());
+            if !ok {
+                return Err(self.blowup_error());
+            }
+            disp2 = d;
+        }
+        Ok(())
+    }
+}
+
+/// Which half kicks an integration pass does.
+#[derive(Clone, Copy)]
+enum Phase {
+    /// Start a step: half kick, drift, predict.
+    KickDrift,
+    /// Finish a step: half kick.
+    Kick,
+    /// Finish a step and start the next.
+    KickKickDrift,
+}
+
+impl Phase {
+    /// (finishes a step, starts a step)
+    fn parts(self) -> (bool, bool) {
+        match self {
+            Phase::KickDrift => (false, true),
+            Phase::Kick => (true, false),
+            Phase::KickKickDrift => (true, true),
+        }
+    }
+}
+
+/// Columns the integration phases write, shared over the team by disjoint chunks.
+struct IntegrateColumns {
+    velocity: Shared<Vec3>,
+    position: Shared<Vec3>,
+    angular_velocity: Shared<Vec3>,
+    velocity_pred: Shared<Vec3>,
+    angular_velocity_pred: Shared<Vec3>,
+    result: Shared<(bool, Real)>,
+}
+
+/// Disjoint borrows of the engine for one force phase.
+struct ForceJob<'a> {
+    uniform: Option<UniformPair>,
+    cfg: &'a DemConfig,
+    state: &'a mut ParticleState,
+    nlist: &'a mut NeighborList,
+    bounds: &'a [usize],
+    spills: &'a mut [Vec<Spill>],
+    chunk_wall_force: &'a mut [Vec<Vec3>],
+    wall_force: &'a mut [Vec3],
+    velocity_pred: &'a [Vec3],
+    angular_velocity_pred: &'a [Vec3],
+}
+
+impl ForceJob<'_> {
+    fn run<N: NormalLaw, T: TangentialLaw>(self, laws: &Laws<N, T>, team: &Team) {
+        let cfg = self.cfg;
+        let nw = cfg.walls.len();
+        let set = StepSettings {
+            uniform: self.uniform,
+            walls: &cfg.walls,
+            gravity: cfg.gravity,
+            dt: cfg.dt,
+            rotation: cfg.rotation,
+        };
+        let s = self.state;
+        let nl = self.nlist;
+        if nl.history.len() != nl.partner.len() {
+            nl.history.resize(nl.partner.len(), [0.0; 3]);
+        }
+        let force = Shared::new(&mut s.force);
+        let torque = Shared::new(&mut s.torque);
+        let wall_history = Shared::new(&mut s.wall_history);
+        let history = Shared::new(&mut nl.history);
+        let spills = Shared::new(self.spills);
+        let wall_acc = Shared::new(self.chunk_wall_force);
+        let g = GrainsIn {
+            position: &s.position,
+            velocity: self.velocity_pred,
+            angular_velocity: self.angular_velocity_pred,
+            radius: &s.radius,
+            mass: &s.mass,
+            external_force: &s.external_force,
+        };
+        let (start, partner) = (&nl.start, &nl.partner);
+        let bounds = self.bounds;
+        team.run(&|c| {
+            let (lo, hi) = (bounds[c], bounds[c + 1]);
+            let (hlo, hhi) = (start[lo] as usize, start[hi] as usize);
+            // SAFETY: chunk c owns grains [lo, hi), their pair rows [start[lo], start[hi]),
+            // their wall histories, and slot c of the spill and wall-force lists; the chunks
+            // are disjoint.
+            let out = unsafe {
+                let spill = &mut spills.range(c, c + 1)[0];
+                spill.clear();
+                ChunkOut {
+                    lo,
+                    force: force.range(lo, hi),
+                    torque: torque.range(lo, hi),
+                    history: history.range(hlo, hhi),
+                    wall_history: wall_history.range(lo * nw, hi * nw),
+                    spill,
+                    wall_force: &mut wall_acc.range(c, c + 1)[0],
+                }
+            };
+            chunk_forces(laws, &set, g, start, partner, out);
+        });
+        // Partner shares across chunk boundaries and wall forces, in chunk order.
+        for spill in self.spills.iter() {
+            for sp in spill {
+                let j = sp.j as usize;
+                vec3::add_assign(&mut s.force[j], sp.force);
+                if cfg.rotation {
+                    vec3::add_assign(&mut s.torque[j], sp.torque);
+                }
+            }
+        }
+        for w in 0..nw {
+            self.wall_force[w] = [0.0; 3];
+            for acc in self.chunk_wall_force.iter() {
+                vec3::add_assign(&mut self.wall_force[w], acc[w]);
+            }
+        }
     }
 }
 
@@ -548,42 +705,28 @@ impl DemBackend for NativeDem {
     }
 
     fn advance(&mut self, steps: u64) -> Result<(), BackendError> {
-        let dt = self.cfg.dt;
-        if self.rebuild_pending {
-            let t0 = Instant::now();
-            self.rebuild();
-            self.timer.add("neighbor", t0.elapsed().as_secs_f64());
-            let t0 = Instant::now();
-            self.compute_forces();
-            self.timer.add("forces", t0.elapsed().as_secs_f64());
+        if steps == 0 {
+            return Ok(());
         }
-        for _ in 0..steps {
-            let t0 = Instant::now();
-            self.kick_drift();
-            let t1 = Instant::now();
-            self.timer.add("integrate", (t1 - t0).as_secs_f64());
-            self.time += dt;
-            self.step += 1;
-            if self.step.is_multiple_of(FEED_STRIDE)
-                && (self.cfg.inlet.is_some() || self.cfg.removes_grains)
-            {
-                self.remove_leaving();
-                self.feed(FEED_STRIDE as Real * dt);
-            }
-            let t2 = Instant::now();
-            self.timer.add("inlet_outlet", (t2 - t1).as_secs_f64());
-            if self.rebuild_pending || self.nlist.needs_rebuild(&self.state, self.cfg.skin) {
-                self.rebuild();
-            }
-            let t3 = Instant::now();
-            self.timer.add("neighbor", (t3 - t2).as_secs_f64());
-            self.compute_forces();
-            let t4 = Instant::now();
-            self.timer.add("forces", (t4 - t3).as_secs_f64());
-            self.kick()?;
-            self.timer.add("integrate", t4.elapsed().as_secs_f64());
+        let team = Team::new(self.cfg.threads);
+        if team.members() == 1 {
+            return self.advance_with(steps, &team);
         }
-        Ok(())
+        std::thread::scope(|scope| {
+            for member in 1..team.members() {
+                let t = &team;
+                scope.spawn(move || t.work(member));
+            }
+            // Stop the workers however the steps end (error or panic).
+            struct StopOnDrop<'a>(&'a Team);
+            impl Drop for StopOnDrop<'_> {
+                fn drop(&mut self) {
+                    self.0.stop();
+                }
+            }
+            let _stop = StopOnDrop(&team);
+            self.advance_with(steps, &team)
+        })
     }
 
     fn particles(&self) -> ParticleView<'_> {
@@ -653,6 +796,13 @@ impl DemBackend for NativeDem {
                         "grain {p:?} has a non-positive size/density or non-finite state"
                     ),
                 });
+            }
+            if p.radius != self.cfg.radius_min
+                || p.radius != self.cfg.radius_max
+                || p.density != self.cfg.density
+            {
+                // A grain unlike the scene's: pair constants must come per pair from now on.
+                self.uniform = None;
             }
             let id = self.next_id;
             self.next_id += 1;

@@ -92,17 +92,10 @@ pub struct NeighborList {
 }
 
 impl NeighborList {
-    /// True when a grain moved more than half the skin since the last build.
-    pub fn needs_rebuild(&self, state: &ParticleState, skin: Real) -> bool {
-        if self.x_at_build.len() != state.len() {
-            return true;
-        }
-        let limit2 = 0.25 * skin * skin;
-        state
-            .position
-            .iter()
-            .zip(&self.x_at_build)
-            .any(|(x, x0)| norm2(sub(*x, *x0)) > limit2)
+    /// Positions at the last build (empty before the first); a grain that has moved more
+    /// than half the skin from here calls for a rebuild.
+    pub fn reference_positions(&self) -> &[Vec3] {
+        &self.x_at_build
     }
 
     /// Sort grains by cell, rebuild the list, and carry the shear history over.

@@ -2,7 +2,7 @@
 //! A wall acts on a grain like a partner of infinite mass and radius with the grain law's
 //! material, so the grain–grain laws serve unchanged (m* = m, r* = r).
 
-use super::vec3::{dot, norm, scale, sub};
+use super::vec3::{dot, norm2, scale, sub};
 use crate::{Real, Vec3};
 
 /// Wall geometry.
@@ -44,7 +44,13 @@ impl Wall {
             } => {
                 let rel = sub(x, *point);
                 let radial = sub(rel, scale(*axis, dot(rel, *axis)));
-                let rho = norm(radial);
+                // Most grains are clear of the wall: decide on squares before the root.
+                let reach = radius - r;
+                let rho2 = norm2(radial);
+                if reach > 0.0 && rho2 <= reach * reach {
+                    return None;
+                }
+                let rho = rho2.sqrt();
                 let overlap = r + rho - radius;
                 if overlap > 0.0 && rho > 0.0 {
                     Some((overlap, scale(radial, 1.0 / rho)))

@@ -18,6 +18,10 @@ pub struct Hertz {
     pub g_star: Real,
     /// Tsuji damping constant α.
     pub alpha: Real,
+    /// α sqrt(2/3) sqrt(2 Y*): γ_n = this × sqrt(m*) (r* δ)^{1/4}.
+    gamma_n_coeff: Real,
+    /// sqrt(4 G*/Y*) = γ_t / γ_n (k_t over dF_n/dδ is constant).
+    gamma_t_ratio: Real,
 }
 
 impl Hertz {
@@ -27,31 +31,30 @@ impl Hertz {
         let shear = youngs / (2.0 * (1.0 + poisson));
         let one_y = (1.0 - poisson * poisson) / youngs;
         let one_g = (2.0 - poisson) / shear;
+        let (y_star, g_star) = (1.0 / (2.0 * one_y), 1.0 / (2.0 * one_g));
+        let alpha = super::tsuji_alpha(e);
         Self {
-            y_star: 1.0 / (2.0 * one_y),
-            g_star: 1.0 / (2.0 * one_g),
-            alpha: super::tsuji_alpha(e),
+            y_star,
+            g_star,
+            alpha,
+            gamma_n_coeff: alpha * (2.0_f64 / 3.0).sqrt() * (2.0 * y_star).sqrt(),
+            gamma_t_ratio: (4.0 * g_star / y_star).sqrt(),
         }
     }
 }
 
 impl NormalLaw for Hertz {
     #[inline(always)]
-    fn evaluate(&self, m_eff: Real, r_eff: Real, overlap: Real, vn: Real) -> NormalOut {
+    fn evaluate(&self, sqrt_m_eff: Real, r_eff: Real, overlap: Real, vn: Real) -> NormalOut {
         let sqrt_rd = (r_eff * overlap).sqrt();
-        // F = 4/3 Y* sqrt(r* δ) δ;  dF/dδ = 2 Y* sqrt(r* δ).
-        let kn_tangent = 2.0 * self.y_star * sqrt_rd;
-        let kt = 8.0 * self.g_star * sqrt_rd;
-        // α sqrt(m K_n) δ^{1/4} = α/sqrt(1.5) · sqrt(m dF/dδ).
-        let c = self.alpha * (2.0_f64 / 3.0).sqrt();
-        let gamma_n = c * (m_eff * kn_tangent).sqrt();
-        // k_t / (dF_n/dδ) = 4 G*/Y* is constant, so γ_t = γ_n sqrt(4 G*/Y*).
-        let gamma_t = gamma_n * (4.0 * self.g_star / self.y_star).sqrt();
+        // F = 4/3 Y* sqrt(r* δ) δ;  dF/dδ = 2 Y* sqrt(r* δ);  k_t = 8 G* sqrt(r* δ).
+        // α sqrt(m K_n) δ^{1/4} = α/sqrt(1.5) · sqrt(m dF/dδ) = gamma_n_coeff sqrt(m) (r* δ)^{1/4}.
+        let gamma_n = self.gamma_n_coeff * sqrt_m_eff * sqrt_rd.sqrt();
         NormalOut {
             force: (4.0 / 3.0) * self.y_star * sqrt_rd * overlap + gamma_n * vn,
-            kt,
+            kt: 8.0 * self.g_star * sqrt_rd,
             gamma_n,
-            gamma_t,
+            gamma_t: gamma_n * self.gamma_t_ratio,
         }
     }
 

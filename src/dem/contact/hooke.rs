@@ -14,15 +14,23 @@ pub struct Hooke {
     pub kt: Real,
     /// Damping ratio ζ from restitution.
     pub zeta: Real,
+    /// 2 ζ sqrt(k_n): γ_n = this × sqrt(m_eff), kg^½/s.
+    gamma_n_per_sqrt_m: Real,
+    /// 2 ζ sqrt(k_t): γ_t = this × sqrt(m_eff), kg^½/s.
+    gamma_t_per_sqrt_m: Real,
 }
 
 impl Hooke {
     /// Law with stiffness `kn`, restitution `e`, and k_t/k_n = `kt_ratio`.
     pub fn new(kn: Real, e: Real, kt_ratio: Real) -> Self {
+        let zeta = hooke_damping_ratio(e);
+        let kt = kt_ratio * kn;
         Self {
             kn,
-            kt: kt_ratio * kn,
-            zeta: hooke_damping_ratio(e),
+            kt,
+            zeta,
+            gamma_n_per_sqrt_m: 2.0 * zeta * kn.sqrt(),
+            gamma_t_per_sqrt_m: 2.0 * zeta * kt.sqrt(),
         }
     }
 
@@ -35,10 +43,10 @@ impl Hooke {
 
 impl NormalLaw for Hooke {
     #[inline(always)]
-    fn evaluate(&self, m_eff: Real, _r_eff: Real, overlap: Real, vn: Real) -> NormalOut {
-        let gamma_n = 2.0 * self.zeta * (m_eff * self.kn).sqrt();
+    fn evaluate(&self, sqrt_m_eff: Real, _r_eff: Real, overlap: Real, vn: Real) -> NormalOut {
+        let gamma_n = self.gamma_n_per_sqrt_m * sqrt_m_eff;
         // Same damping ratio in the tangential direction.
-        let gamma_t = 2.0 * self.zeta * (m_eff * self.kt).sqrt();
+        let gamma_t = self.gamma_t_per_sqrt_m * sqrt_m_eff;
         NormalOut {
             force: self.kn * overlap + gamma_n * vn,
             kt: self.kt,

@@ -33,8 +33,9 @@ pub struct NormalOut {
 /// A normal force law for one kind of pair (grain–grain or grain–wall).
 pub trait NormalLaw: Clone + Send + Sync {
     /// Force for overlap δ (m) and approach speed `vn` (m/s) of a pair with effective mass
-    /// `m_eff` (kg) and effective radius `r_eff` (m).
-    fn evaluate(&self, m_eff: Real, r_eff: Real, overlap: Real, vn: Real) -> NormalOut;
+    /// `m_eff` (kg), its square root `sqrt_m_eff` (passed in so a monodisperse run computes
+    /// it once), and effective radius `r_eff` (m).
+    fn evaluate(&self, sqrt_m_eff: Real, r_eff: Real, overlap: Real, vn: Real) -> NormalOut;
     /// Duration of a collision at impact speed `v` (Hertz depends on it, Hooke does not), s.
     fn contact_time(&self, m_eff: Real, r_eff: Real, v: Real) -> Real;
 }
