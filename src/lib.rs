@@ -8,6 +8,7 @@
 #![allow(clippy::needless_range_loop)]
 
 pub mod dem;
+pub mod gas;
 pub mod rng;
 pub mod run;
 pub mod scene;

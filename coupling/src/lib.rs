@@ -6,9 +6,15 @@
 //! the [`StageTimer`] that times each named stage of a step (shared/DESIGN.md, "The step").
 
 pub mod backend;
+pub mod drag;
+pub mod gas;
+pub mod grid;
 pub mod timing;
 
 pub use backend::{BackendError, DemBackend, ImplicitDrag, NewParticle, ParticleView, WallForce};
+pub use drag::{DarcyVolumeForce, DragLaw, GrainInFluid};
+pub use gas::{GasError, GasSolver, GasStepReport};
+pub use grid::{deposit, GranularFields, Stencil, TubeGrid};
 pub use timing::StageTimer;
 
 /// The one floating-point type of the project (SI units throughout).

@@ -1,0 +1,45 @@
+//! The gas-solver trait: advance the gas over one coupling interval given the granular
+//! fields, then answer pressure and its gradient on the nodes.
+
+use crate::grid::GranularFields;
+use crate::{Real, Vec3};
+
+/// What one gas step reports.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct GasStepReport {
+    /// Nodes whose porosity was clamped into [φ_min, φ_max] this step.
+    pub clamped_nodes: usize,
+    /// |storage change − boundary fluxes − sources| / |inflow| of this step.
+    pub mass_error_rel: Real,
+}
+
+/// Errors of a gas solve, naming where they arose.
+#[derive(Debug, thiserror::Error)]
+pub enum GasError {
+    /// The linear solve failed.
+    #[error("gas solve failed at gas step {step}: {reason}")]
+    Solve { step: u64, reason: String },
+    /// A pressure became NaN or infinite.
+    #[error("gas pressure not finite at gas step {step}, node {node} (slice {slice})")]
+    NonFinite {
+        step: u64,
+        node: usize,
+        slice: usize,
+    },
+}
+
+/// A gas solver on a [`crate::TubeGrid`].
+pub trait GasSolver {
+    /// Name as the scene writes it.
+    fn name(&self) -> &'static str;
+    /// Advance over `dt` seconds with the given granular fields.
+    fn step(&mut self, fields: &GranularFields, dt: Real) -> Result<GasStepReport, GasError>;
+    /// Pressure P' = P − P0 on the nodes, Pa.
+    fn pressure(&self) -> &[Real];
+    /// Porosity on the nodes as the solver used it (clamped).
+    fn porosity(&self) -> &[Real];
+    /// Pressure gradient on the nodes, Pa/m.
+    fn pressure_gradient(&self) -> Vec<Vec3>;
+    /// Pressure drop from inlet to outlet per length, Pa/m.
+    fn pressure_drop_per_length(&self) -> Real;
+}

@@ -1,0 +1,562 @@
+//! McNamara–Flekkøy gas model (seed 000 eqs. 3–5; seed 002 §2.1): the gas pressure
+//! diffuses through the grains,
+//!
+//!   φ ∂P'/∂t = (P0/η) ∇·(κ(φ) ∇P') − P0 ∇·u,   κ(φ) = d² φ³ / (180 (1 − φ)²)  (eq. 4),
+//!
+//! discretised by finite volumes on the wall-cut cells of a [`TubeGrid`]:
+//!
+//!   C_n dP_n/dt = Σ_f c_f (P_nb − P_n) − c_out,n P_n + b_n,
+//!
+//! with storage C_n = V_n φ_n, face conductance c_f = (P0/η) κ_f A_f / d_f (harmonic mean of
+//! κ across the face), the outlet held at P' = 0 half a cell past the last nodes, and the
+//! sources b_n = P0 v_s A_n at the inlet slice (the seeds' ∓S term: a gas flux v_s at P0)
+//! minus P0 times the outward flux of the granular velocity through the cell's faces.
+//!
+//! The equation is very stiff (D Δt/Δx² of 1e3–1e6 between plugs), so time stepping is
+//! implicit: the θ-scheme (θ = 1 backward Euler, θ = ½ Crank–Nicolson, which rings at sharp
+//! porosity jumps: its amplification factor tends to −1 for stiff modes) or BDF2, which is
+//! L-stable. Two solution paths: one sparse Cholesky solve of the whole system (faer, the
+//! symbolic factorisation kept for the run), or directional splitting with tridiagonal
+//! sweeps along each axis in turn (as the seeds did), which adds an O(Δt) splitting error.
+
+use faer::linalg::solvers::Solve;
+use faer::sparse::linalg::solvers::{Llt, SymbolicLlt};
+use faer::sparse::{SparseColMat, Triplet};
+use faer::{Mat, Side};
+use plugflow_coupling::{GasError, GasSolver, GasStepReport, GranularFields, TubeGrid};
+
+use crate::{Real, Vec3};
+
+/// Time scheme.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Scheme {
+    /// θ-scheme: 1 = backward Euler, ½ = Crank–Nicolson.
+    Theta(Real),
+    /// Second-order backward differences (L-stable); its first step is backward Euler.
+    Bdf2,
+}
+
+/// How the linear system of a step is solved.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum SolvePath {
+    /// One sparse Cholesky solve (reference).
+    Monolithic,
+    /// Tridiagonal sweeps along the axis, then across (fast; O(Δt) splitting error).
+    Splitting,
+}
+
+/// Parameters of the d'Arcy gas.
+#[derive(Debug, Clone, Copy)]
+pub struct DarcyParams {
+    /// Background pressure P0, Pa.
+    pub p0: Real,
+    /// Gas (effective) viscosity η, Pa·s.
+    pub viscosity: Real,
+    /// Grain diameter in the Carman–Kozeny law, m.
+    pub grain_diameter: Real,
+    /// Superficial gas velocity at the inlet, m/s.
+    pub superficial_velocity: Real,
+    /// Porosity clamp, lower bound.
+    pub porosity_min: Real,
+    /// Porosity clamp, upper bound.
+    pub porosity_max: Real,
+    /// Time scheme.
+    pub scheme: Scheme,
+    /// Solution path.
+    pub path: SolvePath,
+}
+
+/// Carman–Kozeny permeability κ(φ) = d² φ³ / (180 (1 − φ)²), m² (seed 000 eq. 4).
+pub fn carman_kozeny(d: Real, phi: Real) -> Real {
+    d * d * phi * phi * phi / (180.0 * (1.0 - phi) * (1.0 - phi))
+}
+
+/// A face between two nodes.
+#[derive(Debug, Clone, Copy)]
+struct Edge {
+    a: usize,
+    b: usize,
+    /// Open area / distance, m.
+    area_over_dist: Real,
+    /// 0 = along the axis, 1 = across (e1), 2 = across (e2).
+    dir: u8,
+}
+
+/// The d'Arcy gas solver.
+pub struct DarcyGas {
+    grid: TubeGrid,
+    params: DarcyParams,
+    edges: Vec<Edge>,
+    /// P' now and one step ago, Pa.
+    p: Vec<Real>,
+    p_prev: Vec<Real>,
+    /// The dt of the previous step (BDF2 needs equal steps), s.
+    last_dt: Option<Real>,
+    /// Clamped porosity used by the last step.
+    phi: Vec<Real>,
+    /// Scratch: conductance per edge, outlet conductance per node, storage, sources.
+    cond: Vec<Real>,
+    c_out: Vec<Real>,
+    storage: Vec<Real>,
+    source: Vec<Real>,
+    symbolic: Option<SymbolicLlt<usize>>,
+    /// Node indices of every grid line along the axis, e1 and e2 (for the sweeps).
+    lines: [Vec<Vec<usize>>; 3],
+    steps: u64,
+}
+
+impl DarcyGas {
+    /// Solver on `grid`, starting from P' = 0 everywhere.
+    pub fn new(grid: TubeGrid, params: DarcyParams) -> Self {
+        // 600-node systems: threads cost more than they save, and one thread keeps the
+        // solve bitwise reproducible.
+        faer::set_global_parallelism(faer::Par::Seq);
+        let mut edges = Vec::new();
+        for k in 0..grid.nz {
+            for j in 0..grid.ny {
+                for i in 0..grid.nx {
+                    let n = grid.node(k, i, j);
+                    if k + 1 < grid.nz {
+                        edges.push(Edge {
+                            a: n,
+                            b: grid.node(k + 1, i, j),
+                            area_over_dist: grid.face_z[i + grid.nx * j] / grid.dz,
+                            dir: 0,
+                        });
+                    }
+                    if i + 1 < grid.nx {
+                        edges.push(Edge {
+                            a: n,
+                            b: grid.node(k, i + 1, j),
+                            area_over_dist: grid.face_x[i + (grid.nx - 1) * j] / grid.dx,
+                            dir: 1,
+                        });
+                    }
+                    if j + 1 < grid.ny {
+                        edges.push(Edge {
+                            a: n,
+                            b: grid.node(k, i, j + 1),
+                            area_over_dist: grid.face_y[i + grid.nx * j] / grid.dy,
+                            dir: 2,
+                        });
+                    }
+                }
+            }
+        }
+        let n = grid.len();
+        let (nz, nx, ny) = (grid.nz, grid.nx, grid.ny);
+        let lines = [
+            (0..nx * ny)
+                .map(|c| (0..nz).map(|k| grid.node(k, c % nx, c / nx)).collect())
+                .collect(),
+            (0..nz * ny)
+                .map(|c| (0..nx).map(|i| grid.node(c / ny, i, c % ny)).collect())
+                .collect(),
+            (0..nz * nx)
+                .map(|c| (0..ny).map(|j| grid.node(c / nx, c % nx, j)).collect())
+                .collect(),
+        ];
+        Self {
+            lines,
+            edges,
+            p: vec![0.0; n],
+            p_prev: vec![0.0; n],
+            last_dt: None,
+            phi: vec![1.0; n],
+            cond: Vec::new(),
+            c_out: vec![0.0; n],
+            storage: vec![0.0; n],
+            source: vec![0.0; n],
+            symbolic: None,
+            steps: 0,
+            grid,
+            params,
+        }
+    }
+
+    /// The grid.
+    pub fn grid(&self) -> &TubeGrid {
+        &self.grid
+    }
+
+    /// Set P' on the nodes (tests and restarts), Pa; forgets the previous step.
+    pub fn set_pressure(&mut self, p: &[Real]) {
+        self.p.copy_from_slice(p);
+        self.p_prev.copy_from_slice(p);
+        self.last_dt = None;
+    }
+
+    /// Change the inlet's superficial velocity, m/s.
+    pub fn set_superficial_velocity(&mut self, v: Real) {
+        self.params.superficial_velocity = v;
+    }
+
+    /// Fill conductances, storage and sources for the fields of this step.
+    fn assemble(&mut self, fields: &GranularFields) -> usize {
+        let g = &self.grid;
+        let pr = &self.params;
+        let mut clamped = 0;
+        for (n, &phi) in fields.porosity.iter().enumerate() {
+            let c = phi.clamp(pr.porosity_min, pr.porosity_max);
+            if c != phi {
+                clamped += 1;
+            }
+            self.phi[n] = c;
+        }
+        let kappa: Vec<Real> = self
+            .phi
+            .iter()
+            .map(|&f| carman_kozeny(pr.grain_diameter, f))
+            .collect();
+        let scale = pr.p0 / pr.viscosity;
+        self.cond.clear();
+        for e in &self.edges {
+            let (ka, kb) = (kappa[e.a], kappa[e.b]);
+            let harmonic = 2.0 * ka * kb / (ka + kb);
+            self.cond.push(scale * harmonic * e.area_over_dist);
+        }
+        for n in 0..g.len() {
+            self.storage[n] = g.volume[n] * self.phi[n];
+            self.c_out[n] = 0.0;
+            self.source[n] = 0.0;
+        }
+        let last = g.nz - 1;
+        for j in 0..g.ny {
+            for i in 0..g.nx {
+                let area = g.face_z[i + g.nx * j];
+                let n_in = g.node(0, i, j);
+                self.source[n_in] += pr.p0 * pr.superficial_velocity * area;
+                let n_out = g.node(last, i, j);
+                self.c_out[n_out] = scale * kappa[n_out] * area / (0.5 * g.dz);
+            }
+        }
+        // −P0 ∇·u in flux form: the granular velocity through each face (average of the
+        // two nodes); the inlet end is closed to grains, the outlet lets them pass.
+        let u = &fields.velocity;
+        for e in &self.edges {
+            let d = e.dir as usize;
+            let (ua, ub) = (self.component(u[e.a], d), self.component(u[e.b], d));
+            let area = e.area_over_dist
+                * match d {
+                    0 => g.dz,
+                    1 => g.dx,
+                    _ => g.dy,
+                };
+            let flux = 0.5 * (ua + ub) * area; // from a to b
+            self.source[e.a] -= pr.p0 * flux;
+            self.source[e.b] += pr.p0 * flux;
+        }
+        for j in 0..g.ny {
+            for i in 0..g.nx {
+                let n = g.node(last, i, j);
+                let flux = self.component(u[n], 0).max(0.0) * g.face_z[i + g.nx * j];
+                self.source[n] -= pr.p0 * flux;
+            }
+        }
+        clamped
+    }
+
+    /// Component of a lab-frame vector along grid direction `d`.
+    fn component(&self, v: Vec3, d: usize) -> Real {
+        let a = match d {
+            0 => self.grid.axis,
+            1 => self.grid.e1,
+            _ => self.grid.e2,
+        };
+        v[0] * a[0] + v[1] * a[1] + v[2] * a[2]
+    }
+
+    /// (L P)_n = Σ_f c_f (P_n − P_nb) + c_out P_n.
+    fn apply_l(&self, p: &[Real], out: &mut [Real]) {
+        for n in 0..out.len() {
+            out[n] = self.c_out[n] * p[n];
+        }
+        for (e, c) in self.edges.iter().zip(&self.cond) {
+            let f = c * (p[e.a] - p[e.b]);
+            out[e.a] += f;
+            out[e.b] -= f;
+        }
+    }
+
+    /// Solve (diag + w L) x = rhs over the whole grid with sparse Cholesky.
+    fn solve_monolithic(
+        &mut self,
+        diag: &[Real],
+        w: Real,
+        rhs: &[Real],
+    ) -> Result<Vec<Real>, String> {
+        let n = rhs.len();
+        let mut trip: Vec<Triplet<usize, usize, Real>> = Vec::with_capacity(n + self.edges.len());
+        let mut d: Vec<Real> = (0..n).map(|k| diag[k] + w * self.c_out[k]).collect();
+        for (e, c) in self.edges.iter().zip(&self.cond) {
+            d[e.a] += w * c;
+            d[e.b] += w * c;
+            let (r, col) = if e.a > e.b { (e.a, e.b) } else { (e.b, e.a) };
+            trip.push(Triplet::new(r, col, -w * c));
+        }
+        for (k, v) in d.iter().enumerate() {
+            trip.push(Triplet::new(k, k, *v));
+        }
+        let mat = SparseColMat::<usize, Real>::try_new_from_triplets(n, n, &trip)
+            .map_err(|e| format!("matrix assembly: {e:?}"))?;
+        if self.symbolic.is_none() {
+            self.symbolic = Some(
+                SymbolicLlt::try_new(mat.symbolic(), Side::Lower)
+                    .map_err(|e| format!("symbolic factorisation: {e:?}"))?,
+            );
+        }
+        let sym = self.symbolic.clone().expect("just built");
+        let llt = Llt::try_new_with_symbolic(sym, mat.as_ref(), Side::Lower)
+            .map_err(|e| format!("numeric factorisation: {e:?}"))?;
+        let mut x = Mat::<Real>::from_fn(n, 1, |i, _| rhs[i]);
+        llt.solve_in_place(x.as_mut());
+        // One step of iterative refinement: the stiff systems (conductances 1e5 × storage/dt)
+        // leave ~1e-10 relative round-off after one solve; refinement brings the gas mass
+        // balance back to ~1e-14.
+        let mut residual = Mat::<Real>::from_fn(n, 1, |i, _| {
+            rhs[i] - (diag[i] + w * self.c_out[i]) * x[(i, 0)]
+        });
+        for (e, c) in self.edges.iter().zip(&self.cond) {
+            let f = w * c * (x[(e.a, 0)] - x[(e.b, 0)]);
+            residual[(e.a, 0)] -= f;
+            residual[(e.b, 0)] += f;
+        }
+        llt.solve_in_place(residual.as_mut());
+        Ok((0..n).map(|i| x[(i, 0)] + residual[(i, 0)]).collect())
+    }
+
+    /// Solve (diag + w L_d) x = rhs along the lines of direction `d`, with one step of
+    /// iterative refinement (as the monolithic path: stiff lines leave ~1e-10 round-off).
+    fn sweep(&self, diag: &[Real], w: Real, rhs: &[Real], d: u8) -> Vec<Real> {
+        let mut x = self.thomas(diag, w, rhs, d);
+        let mut r: Vec<Real> = (0..rhs.len())
+            .map(|k| {
+                let out = if d == 0 { self.c_out[k] } else { 0.0 };
+                rhs[k] - (diag[k] + w * out) * x[k]
+            })
+            .collect();
+        for (e, c) in self.edges.iter().zip(&self.cond) {
+            if e.dir == d {
+                let f = w * c * (x[e.a] - x[e.b]);
+                r[e.a] -= f;
+                r[e.b] += f;
+            }
+        }
+        let dx = self.thomas(diag, w, &r, d);
+        for (xi, di) in x.iter_mut().zip(dx) {
+            *xi += di;
+        }
+        x
+    }
+
+    /// Tridiagonal solves of (diag + w L_d) x = rhs along every line of direction `d`.
+    fn thomas(&self, diag: &[Real], w: Real, rhs: &[Real], d: u8) -> Vec<Real> {
+        let n = rhs.len();
+        // Tridiagonal rows: lower[n], main[n], upper[n] in line order.
+        let mut main: Vec<Real> = diag.to_vec();
+        if d == 0 {
+            for k in 0..n {
+                main[k] += w * self.c_out[k];
+            }
+        }
+        let mut to_next = vec![0.0; n]; // coupling of node with its successor on the line
+        for (e, c) in self.edges.iter().zip(&self.cond) {
+            if e.dir == d {
+                main[e.a] += w * c;
+                main[e.b] += w * c;
+                to_next[e.a] = -w * c;
+            }
+        }
+        let lines = &self.lines[d as usize];
+        let len = lines.first().map_or(0, |l| l.len());
+        let mut x = vec![0.0; n];
+        let mut cp = vec![0.0; len];
+        let mut dp = vec![0.0; len];
+        for line in lines {
+            for m in 0..len {
+                let node = line[m];
+                let lower = if m > 0 { to_next[line[m - 1]] } else { 0.0 };
+                let upper = if m + 1 < len { to_next[node] } else { 0.0 };
+                let denom = main[node] - if m > 0 { lower * cp[m - 1] } else { 0.0 };
+                cp[m] = upper / denom;
+                dp[m] = (rhs[node] - if m > 0 { lower * dp[m - 1] } else { 0.0 }) / denom;
+            }
+            for m in (0..len).rev() {
+                let node = line[m];
+                x[node] = dp[m]
+                    - if m + 1 < len {
+                        cp[m] * x[line[m + 1]]
+                    } else {
+                        0.0
+                    };
+            }
+        }
+        x
+    }
+}
+
+impl GasSolver for DarcyGas {
+    fn name(&self) -> &'static str {
+        "darcy"
+    }
+
+    fn step(&mut self, fields: &GranularFields, dt: Real) -> Result<GasStepReport, GasError> {
+        let n = self.grid.len();
+        let clamped = self.assemble(fields);
+        let step = self.steps + 1;
+        let bdf2 = self.params.scheme == Scheme::Bdf2
+            && self.last_dt.is_some_and(|h| (h - dt).abs() <= 1e-12 * dt);
+        let theta = match self.params.scheme {
+            Scheme::Theta(t) => t,
+            Scheme::Bdf2 => 1.0, // first step (or a changed dt): backward Euler
+        };
+        // diag·P^{n+1} + w L P^{n+1} = rhs
+        let (diag, w, rhs): (Vec<Real>, Real, Vec<Real>) = if bdf2 {
+            let diag: Vec<Real> = self.storage.iter().map(|c| 1.5 * c / dt).collect();
+            let rhs = (0..n)
+                .map(|k| {
+                    self.storage[k] / dt * (2.0 * self.p[k] - 0.5 * self.p_prev[k]) + self.source[k]
+                })
+                .collect();
+            (diag, 1.0, rhs)
+        } else {
+            let mut lp = vec![0.0; n];
+            self.apply_l(&self.p, &mut lp);
+            let diag: Vec<Real> = self.storage.iter().map(|c| c / dt).collect();
+            let rhs = (0..n)
+                .map(|k| diag[k] * self.p[k] - (1.0 - theta) * lp[k] + self.source[k])
+                .collect();
+            (diag, theta, rhs)
+        };
+        // Outflow through the outlet as the scheme counts it, for the mass balance.
+        let c_out = self.c_out.clone();
+        let out_flux = |p: &[Real]| -> Real { (0..n).map(|k| c_out[k] * p[k]).sum() };
+        let explicit_out = if bdf2 {
+            0.0
+        } else {
+            (1.0 - theta) * out_flux(&self.p)
+        };
+        let (new_p, implicit_out) = match self.params.path {
+            SolvePath::Monolithic => {
+                let x = self
+                    .solve_monolithic(&diag, w, &rhs)
+                    .map_err(|reason| GasError::Solve { step, reason })?;
+                let o = w * out_flux(&x);
+                (x, o)
+            }
+            SolvePath::Splitting => {
+                let p1 = self.sweep(&diag, w, &rhs, 0);
+                let o = w * out_flux(&p1);
+                let mut x = p1;
+                for d in 1..3u8 {
+                    let has = self.edges.iter().any(|e| e.dir == d);
+                    if has {
+                        let r: Vec<Real> = (0..n).map(|k| diag[k] * x[k]).collect();
+                        x = self.sweep(&diag, w, &r, d);
+                    }
+                }
+                (x, o)
+            }
+        };
+        if let Some(bad) = new_p.iter().position(|v| !v.is_finite()) {
+            return Err(GasError::NonFinite {
+                step,
+                node: bad,
+                slice: bad / (self.grid.nx * self.grid.ny),
+            });
+        }
+        // Global balance: Σ storage change = sources − outflow (interior fluxes cancel).
+        let storage_change: Real = if bdf2 {
+            (0..n)
+                .map(|k| {
+                    self.storage[k] * (1.5 * new_p[k] - 2.0 * self.p[k] + 0.5 * self.p_prev[k]) / dt
+                })
+                .sum()
+        } else {
+            (0..n)
+                .map(|k| self.storage[k] * (new_p[k] - self.p[k]) / dt)
+                .sum()
+        };
+        let sources: Real = self.source.iter().sum();
+        let balance = storage_change - (sources - implicit_out - explicit_out);
+        let scale = sources.abs() + implicit_out.abs() + explicit_out.abs() + storage_change.abs();
+        let mass_error_rel = if scale > 0.0 {
+            balance.abs() / scale
+        } else {
+            0.0
+        };
+        self.p_prev = std::mem::replace(&mut self.p, new_p);
+        self.last_dt = Some(dt);
+        self.steps = step;
+        Ok(GasStepReport {
+            clamped_nodes: clamped,
+            mass_error_rel,
+        })
+    }
+
+    fn pressure(&self) -> &[Real] {
+        &self.p
+    }
+
+    fn porosity(&self) -> &[Real] {
+        &self.phi
+    }
+
+    fn pressure_gradient(&self) -> Vec<Vec3> {
+        let g = &self.grid;
+        let pr = &self.params;
+        let mut grad = vec![[0.0; 3]; g.len()];
+        for k in 0..g.nz {
+            for j in 0..g.ny {
+                for i in 0..g.nx {
+                    let n = g.node(k, i, j);
+                    let p = &self.p;
+                    // Along the axis: central differences; at the inlet the flux condition
+                    // −(κ/η) ∂P/∂s = v_s, at the outlet P' = 0 half a cell beyond.
+                    let ds = if g.nz == 1 {
+                        -p[n] / (0.5 * g.dz)
+                    } else if k == 0 {
+                        let inlet = -pr.viscosity * pr.superficial_velocity
+                            / carman_kozeny(pr.grain_diameter, self.phi[n]);
+                        0.5 * (inlet + (p[g.node(1, i, j)] - p[n]) / g.dz)
+                    } else if k + 1 == g.nz {
+                        0.5 * ((p[n] - p[g.node(k - 1, i, j)]) / g.dz + (0.0 - p[n]) / (0.5 * g.dz))
+                    } else {
+                        (p[g.node(k + 1, i, j)] - p[g.node(k - 1, i, j)]) / (2.0 * g.dz)
+                    };
+                    let across = |m: usize, count: usize, h: Real, at: &dyn Fn(usize) -> usize| {
+                        if count == 1 {
+                            0.0
+                        } else if m == 0 {
+                            (p[at(1)] - p[at(0)]) / h
+                        } else if m + 1 == count {
+                            (p[at(m)] - p[at(m - 1)]) / h
+                        } else {
+                            (p[at(m + 1)] - p[at(m - 1)]) / (2.0 * h)
+                        }
+                    };
+                    let du = across(i, g.nx, g.dx, &|ii| g.node(k, ii, j));
+                    let dw = across(j, g.ny, g.dy, &|jj| g.node(k, i, jj));
+                    for c in 0..3 {
+                        grad[n][c] = ds * g.axis[c] + du * g.e1[c] + dw * g.e2[c];
+                    }
+                }
+            }
+        }
+        grad
+    }
+
+    fn pressure_drop_per_length(&self) -> Real {
+        let g = &self.grid;
+        let (mut sum, mut area) = (0.0, 0.0);
+        for j in 0..g.ny {
+            for i in 0..g.nx {
+                let a = g.face_z[i + g.nx * j];
+                sum += a * self.p[g.node(0, i, j)];
+                area += a;
+            }
+        }
+        // The first nodes sit half a cell above the inlet; the outlet is at P' = 0.
+        (sum / area) / (g.length - 0.5 * g.dz)
+    }
+}
