@@ -7,8 +7,10 @@
 // Index loops over several structure-of-arrays columns at once read better than zips.
 #![allow(clippy::needless_range_loop)]
 
+pub mod cosim;
 pub mod dem;
 pub mod gas;
+pub mod png;
 pub mod rng;
 pub mod run;
 pub mod scene;

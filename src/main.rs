@@ -56,10 +56,19 @@ fn main() -> ExitCode {
             let checked = Scene::load(&scene, &set).and_then(|s| {
                 let c = DemConfig::from_scene(&s)?;
                 plugflow::dem::NativeDem::new(c.clone())?;
-                Ok((s, c))
+                let gas = plugflow::cosim::GasCoupling::from_scene(&s, &c)?;
+                Ok((s, c, gas))
             });
             match checked {
-                Ok((s, c)) => {
+                Ok((s, c, gas)) => {
+                    if let Some(g) = &gas {
+                        for ch in &g.checks {
+                            println!(
+                                "coupling check: {}: {:.4} (limit {:.4}) {:?}",
+                                ch.name, ch.value, ch.limit, ch.verdict
+                            );
+                        }
+                    }
                     println!(
                         "ok: scene `{}`: dt = {:.3e} s ({}; limit {:.3e} s: {}), {} walls",
                         s.file.name,

@@ -8,9 +8,11 @@ use std::time::Instant;
 use plugflow_coupling::{BackendError, DemBackend};
 use serde_json::{json, Map, Value};
 
+use crate::cosim::{GasCoupling, Verdict};
 use crate::dem::{DemConfig, NativeDem};
 use crate::scene::{Scene, SceneError};
 use crate::Real;
+use plugflow_coupling::GasSolver;
 
 /// What can end a run.
 #[derive(Debug, thiserror::Error)]
@@ -21,6 +23,12 @@ pub enum RunError {
     /// The engine stopped (NaN, blow-up, engine failure).
     #[error("run stopped at t = {time:.6} s: {source}")]
     Backend { time: Real, source: BackendError },
+    /// The gas or the exchange failed (NaN pressure, drag).
+    #[error("run stopped at t = {time:.6} s: {source}")]
+    Exchange {
+        time: Real,
+        source: crate::cosim::ExchangeError,
+    },
     /// Output could not be written.
     #[error("cannot write `{path}`: {source}")]
     Io {
@@ -58,6 +66,7 @@ pub fn build_engine(scene: &Scene) -> Result<NativeDem, SceneError> {
 /// Run a scene to its end.
 pub fn run(scene: &Scene, opts: &RunOptions) -> Result<RunOutcome, RunError> {
     let mut dem = build_engine(scene)?;
+    let mut gas = GasCoupling::from_scene(scene, dem.config())?;
     let out_dir = opts
         .out_dir
         .clone()
@@ -70,7 +79,27 @@ pub fn run(scene: &Scene, opts: &RunOptions) -> Result<RunOutcome, RunError> {
     let duration = opts.duration.unwrap_or(f.duration.si);
     let dt = dem.time_step();
     let total_steps = (duration / dt).round().max(1.0) as u64;
-    let per_sample = ((f.output.sample_interval.si / dt).round() as u64).max(1);
+    let mut per_sample = ((f.output.sample_interval.si / dt).round() as u64).max(1);
+    if let Some(g) = &gas {
+        // Sample on coupling boundaries.
+        per_sample = per_sample.div_ceil(g.substeps) * g.substeps;
+        if opts.progress {
+            for c in &g.checks {
+                eprintln!(
+                    "coupling check: {}: {:.4} (limit {:.4}) {:?}{}",
+                    c.name,
+                    c.value,
+                    c.limit,
+                    c.verdict,
+                    if c.verdict == Verdict::Ok {
+                        String::new()
+                    } else {
+                        format!(" — {}", c.advice)
+                    }
+                );
+            }
+        }
+    }
     let settle = f.output.settling_time.map(|q| q.si).unwrap_or(0.0);
 
     let bar = if opts.progress {
@@ -91,31 +120,65 @@ pub fn run(scene: &Scene, opts: &RunOptions) -> Result<RunOutcome, RunError> {
     let mut outflow_at_settle = None;
     let mut failure = None;
     let mut done = 0u64;
-    while done < total_steps {
+    let mut dp_sum = 0.0;
+    let mut porosity_rows: Vec<Vec<Real>> = Vec::new();
+    'run: while done < total_steps {
         let n = per_sample.min(total_steps - done);
-        if let Err(source) = dem.advance(n) {
-            failure = Some(RunError::Backend {
-                time: dem.time(),
-                source,
-            });
-            break;
+        match gas.as_mut() {
+            None => {
+                if let Err(source) = dem.advance(n) {
+                    failure = Some(RunError::Backend {
+                        time: dem.time(),
+                        source,
+                    });
+                    break 'run;
+                }
+            }
+            Some(g) => {
+                let mut left = n;
+                while left > 0 {
+                    let k = g.substeps.min(left);
+                    if let Err(source) = dem.advance(k) {
+                        failure = Some(RunError::Backend {
+                            time: dem.time(),
+                            source,
+                        });
+                        break 'run;
+                    }
+                    if let Err(source) = g.exchange(&mut dem) {
+                        failure = Some(RunError::Exchange {
+                            time: dem.time(),
+                            source,
+                        });
+                        break 'run;
+                    }
+                    left -= k;
+                }
+            }
         }
         done += n;
         let in_tube = dem.particles_in_tube();
+        let dp = gas.as_ref().map(|g| g.pressure_drop());
+        if let Some(g) = &gas {
+            porosity_rows.push(g.porosity_profile());
+        }
         if dem.time() >= settle - 0.5 * dt {
             if outflow_at_settle.is_none() {
                 outflow_at_settle = Some((dem.time(), dem.flow.outflow_mass));
             }
             in_tube_sum += in_tube as Real;
+            dp_sum += dp.unwrap_or(0.0);
             in_tube_n += 1;
         }
         if let Some(b) = &bar {
             b.set_position(done);
             b.set_message(format!(
-                "t = {:.3}/{:.3} s, {} grains in tube",
+                "t = {:.3}/{:.3} s, {} grains in tube{}",
                 dem.time(),
                 duration,
-                in_tube
+                in_tube,
+                dp.map(|d| format!(", Δp {:.1} hPa/m", d / 100.0))
+                    .unwrap_or_default()
             ));
         }
     }
@@ -126,6 +189,11 @@ pub fn run(scene: &Scene, opts: &RunOptions) -> Result<RunOutcome, RunError> {
     let mut stages = Map::new();
     for (name, secs) in dem.stage_times() {
         stages.insert(name, json!(secs));
+    }
+    if let Some(g) = &gas {
+        for (name, secs) in g.timer.entries() {
+            stages.insert(name, json!(secs));
+        }
     }
     let (t_settle, m_settle) = outflow_at_settle.unwrap_or((dem.time(), dem.flow.outflow_mass));
     let span = dem.time() - t_settle;
@@ -162,6 +230,34 @@ pub fn run(scene: &Scene, opts: &RunOptions) -> Result<RunOutcome, RunError> {
         "inlet_blocked_time_s": dem.flow.inlet_blocked_time,
         "threads": cfg.threads,
     });
+    let mut summary = summary;
+    if let Some(g) = &gas {
+        let o = summary.as_object_mut().expect("summary is an object");
+        o.insert(
+            "pressure_drop_hpa_per_m".into(),
+            json!(if in_tube_n > 0 {
+                dp_sum / in_tube_n as Real / 100.0
+            } else {
+                0.0
+            }),
+        );
+        o.insert("gas_mass_error_rel".into(), json!(g.mass_error_max));
+        o.insert(
+            "porosity_clamped_fraction".into(),
+            json!(if g.node_steps > 0 {
+                g.clamped as Real / g.node_steps as Real
+            } else {
+                0.0
+            }),
+        );
+        o.insert(
+            "coupling_checks".into(),
+            Value::Array(g.checks.iter().map(|c| c.to_json()).collect()),
+        );
+        o.insert("coupling_interval_s".into(), json!(g.interval));
+        o.insert("gas_model".into(), json!(g.gas.name()));
+        write_porosity_image(&out_dir, &porosity_rows, scene)?;
+    }
     write_json(&out_dir.join("summary.json"), &summary)?;
     match failure {
         Some(e) => Err(e),
@@ -175,4 +271,39 @@ fn write_json(path: &Path, v: &Value) -> Result<(), RunError> {
         path: path.display().to_string(),
         source,
     })
+}
+
+/// The spatio-temporal porosity of seed 000 fig. 3: `porosity_tz.csv` (one row per sample,
+/// one column per slice) and `porosity_tz.png` (time across, tube axis up, dark = dense).
+fn write_porosity_image(dir: &Path, rows: &[Vec<Real>], scene: &Scene) -> Result<(), RunError> {
+    let io = |path: &Path, source| RunError::Io {
+        path: path.display().to_string(),
+        source,
+    };
+    let csv_path = dir.join("porosity_tz.csv");
+    let mut csv = String::new();
+    for r in rows {
+        let line: Vec<String> = r.iter().map(|v| format!("{v:.4}")).collect();
+        csv.push_str(&line.join(","));
+        csv.push('\n');
+    }
+    std::fs::write(&csv_path, csv).map_err(|e| io(&csv_path, e))?;
+    if rows.is_empty() {
+        return Ok(());
+    }
+    let (w, h) = (rows.len(), rows[0].len());
+    // Porosity 0.4 → black, 1.0 → white.
+    let pixels: Vec<u8> = (0..h)
+        .rev()
+        .flat_map(|z| {
+            rows.iter().map(move |r| {
+                let v = ((r[z] - 0.4) / 0.6).clamp(0.0, 1.0);
+                (v * 255.0).round() as u8
+            })
+        })
+        .collect();
+    let png = crate::png::grey(w as u32, h as u32, &pixels);
+    let png_path = dir.join("porosity_tz.png");
+    let _ = scene;
+    std::fs::write(&png_path, png).map_err(|e| io(&png_path, e))
 }

@@ -98,3 +98,52 @@ fn blow_up_stops_with_step_and_grain_and_keeps_the_summary() {
     assert!(s.contains("failed: run stopped"), "{s}");
     std::fs::remove_dir_all(&dir).ok();
 }
+
+#[test]
+fn coupled_run_reports_gas_numbers_and_checks() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let out = std::env::temp_dir().join(format!("plugflow-coupled-{}", std::process::id()));
+    let case = root.join("cases/vertical_plug.toml");
+    let (code, text) = plugflow(&[
+        "run",
+        case.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+        "--duration",
+        "0.4",
+        "--set",
+        "output.settling_time=0.2 s",
+        "--quiet",
+    ]);
+    assert_eq!(code, 0, "{text}");
+    let s: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
+    for key in [
+        "pressure_drop_hpa_per_m",
+        "gas_mass_error_rel",
+        "porosity_clamped_fraction",
+        "coupling_checks",
+    ] {
+        assert!(s.get(key).is_some(), "summary lacks `{key}`: {s}");
+    }
+    // The gas solve conserves mass to round-off (see tests/gas_darcy.rs).
+    assert!(s["gas_mass_error_rel"].as_f64().unwrap() < 1e-10, "{s}");
+    // After 0.4 s grains lie at the bottom: some pressure drop, none negative.
+    assert!(s["pressure_drop_hpa_per_m"].as_f64().unwrap() > 0.0, "{s}");
+    let checks = s["coupling_checks"].as_array().unwrap();
+    assert_eq!(checks.len(), 3);
+    for c in checks {
+        assert_eq!(c["verdict"], "ok", "{c}");
+        assert!(
+            c["value"].as_f64().unwrap() <= c["limit"].as_f64().unwrap()
+                || c["name"].as_str().unwrap().contains("volume")
+        );
+    }
+    let stages = s["stage_times_s"].as_object().unwrap();
+    for st in ["deposit", "gas", "interpolate_drag", "set_forces", "forces"] {
+        assert!(stages.contains_key(st), "stage `{st}` missing: {stages:?}");
+    }
+    let png = std::fs::read(out.join("porosity_tz.png")).unwrap();
+    assert_eq!(&png[1..4], b"PNG");
+    std::fs::remove_dir_all(&out).ok();
+}

@@ -128,6 +128,8 @@ pub struct DemConfig {
     pub seed: u64,
     /// Grains can leave (open ends or a box).
     pub removes_grains: bool,
+    /// Largest impact speed expected (sets the Hertz contact time), m/s.
+    pub max_impact_velocity: Real,
 }
 
 impl DemConfig {
@@ -431,6 +433,7 @@ impl DemConfig {
             density: rho,
             seed: f.seed,
             removes_grains: removes,
+            max_impact_velocity: v_max,
         })
     }
 }

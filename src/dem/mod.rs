@@ -27,7 +27,7 @@ use self::forces::{chunk_forces, ChunkOut, GrainsIn, Laws, Spill, StepSettings, 
 use self::neighbor::{CellGrid, NeighborList};
 use self::placement::{place, Region};
 use self::state::ParticleState;
-use self::team::{Shared, Team};
+use self::team::{Shared, Team, TeamThreads};
 use self::vec3::{dot, is_finite, norm2, scale, sub};
 use crate::rng::Rng;
 use crate::{Real, Vec3};
@@ -35,6 +35,9 @@ use crate::{Real, Vec3};
 /// Speed beyond which a grain is taken to have blown up, m/s: no conveyed grain moves at
 /// 10 km/s, and a diverging integration passes it long before reaching infinity or NaN.
 const BLOWUP_SPEED: Real = 1.0e4;
+
+/// Fewest grains per thread worth a chunk of its own (below, sync costs more than it saves).
+const MIN_GRAINS_PER_CHUNK: usize = 256;
 
 /// How often (in steps) the inlet and the open ends are looked at.
 const FEED_STRIDE: u64 = 10;
@@ -70,6 +73,8 @@ pub struct NativeDem {
     next_id: u64,
     rng: Rng,
     rebuild_pending: bool,
+    /// The inlet slab was full: no new placement attempt before this time, s.
+    feed_retry_at: Real,
     /// Inflow/outflow counters.
     pub flow: FlowCounters,
     wall_force: Vec<Vec3>,
@@ -78,7 +83,9 @@ pub struct NativeDem {
     timer: StageTimer,
     /// Pair constants while every grain has the scene's one size and density.
     uniform: Option<UniformPair>,
-    /// Chunk boundaries (threads + 1 entries), fixed between neighbour builds.
+    /// Worker threads of the force and integration phases.
+    threads: TeamThreads,
+    /// Chunk boundaries (active chunks + 1 entries), fixed between neighbour builds.
     bounds: Vec<usize>,
     /// Per chunk: (all speeds finite and below the blow-up speed, largest squared
     /// displacement since the last neighbour build).
@@ -103,6 +110,7 @@ impl NativeDem {
             step: 0,
             next_id: 0,
             rebuild_pending: true,
+            feed_retry_at: 0.0,
             flow: FlowCounters::default(),
             wall_force: vec![[0.0; 3]; nw],
             chunk_wall_force: vec![vec![[0.0; 3]; nw]; cfg.threads],
@@ -117,6 +125,7 @@ impl NativeDem {
                     sqrt_m: m.sqrt(),
                 }
             }),
+            threads: TeamThreads::start(cfg.threads),
             bounds: Vec::new(),
             chunk_result: vec![(true, 0.0); cfg.threads],
             velocity_pred: Vec::new(),
@@ -206,7 +215,7 @@ impl NativeDem {
         self.rebuild_pending = false;
         // Contiguous ranges with about equal pair + grain counts per thread.
         let n = self.state.len();
-        let chunks = self.cfg.threads;
+        let chunks = self.cfg.threads.min((n / MIN_GRAINS_PER_CHUNK).max(1));
         let start = &self.nlist.start;
         let total = self.nlist.partner.len() + n;
         self.bounds.clear();
@@ -224,34 +233,30 @@ impl NativeDem {
         self.bounds.push(n);
     }
 
-    /// Feed a batch when grains are owed and the inlet slab is clear.
+    /// Feed the grains owed into the free space of the inlet slab (never overlapping a
+    /// grain already there). A slab packed full blocks the feed; the backlog carries over
+    /// and the blocked time is counted.
     fn feed(&mut self, elapsed: Real) {
         let (Some(inlet), Some(tube)) = (self.cfg.inlet, self.cfg.tube) else {
             return;
         };
         self.flow.inlet_backlog += inlet.rate * elapsed;
-        if self.flow.inlet_backlog < 1.0 {
-            return;
-        }
-        let clear = self
-            .state
-            .position
-            .iter()
-            .zip(&self.state.radius)
-            .all(|(x, r)| {
-                let s = dot(sub(*x, tube.origin), tube.axis);
-                s - r >= inlet.slab_length
-            });
-        if !clear {
+        if self.flow.inlet_backlog < 1.0 || self.time < self.feed_retry_at {
             if self.flow.inlet_backlog > 2.0 * inlet.batch_target as Real {
                 self.flow.inlet_blocked_time += elapsed;
             }
             return;
         }
+        let reach = inlet.slab_length + 2.0 * self.cfg.radius_max;
+        let existing: Vec<(Vec3, Real)> = self
+            .state
+            .position
+            .iter()
+            .zip(&self.state.radius)
+            .filter(|(x, r)| dot(sub(**x, tube.origin), tube.axis) - **r < reach)
+            .map(|(x, r)| (*x, *r))
+            .collect();
         let want = (self.flow.inlet_backlog.floor() as usize).min(inlet.batch_target);
-        if self.cfg.laws.uses_history() {
-            self.nlist.stash_history(&self.state);
-        }
         let radii: Vec<Real> = (0..want).map(|_| self.draw_radius()).collect();
         let region = Region::TubeStretch {
             origin: tube.origin,
@@ -260,7 +265,21 @@ impl NativeDem {
             from: 0.0,
             to: inlet.slab_length,
         };
-        let placed = place(&region, &radii, &[], &mut self.rng, 2_000);
+        let placed = place(&region, &radii, &existing, &mut self.rng, 300);
+        if placed.len() < want {
+            // The slab is full: look again after the grains have had time to move
+            // (a hundredth of the slab at the feed velocity, at least 1 ms).
+            self.feed_retry_at = self.time + (0.01 * inlet.slab_length / inlet.velocity).max(1e-3);
+            if self.flow.inlet_backlog > 2.0 * inlet.batch_target as Real {
+                self.flow.inlet_blocked_time += elapsed;
+            }
+        }
+        if placed.is_empty() {
+            return;
+        }
+        if self.cfg.laws.uses_history() {
+            self.nlist.stash_history(&self.state);
+        }
         let v = scale(tube.axis, inlet.velocity);
         let nw = self.cfg.walls.len();
         for (x, r) in placed.iter().zip(&radii) {
@@ -271,9 +290,7 @@ impl NativeDem {
             self.flow.fed_mass += *self.state.mass.last().expect("just pushed");
         }
         self.flow.inlet_backlog -= placed.len() as Real;
-        if !placed.is_empty() {
-            self.rebuild_pending = true;
-        }
+        self.rebuild_pending = true;
     }
 
     /// Where grain i goes: stays, leaves through the outlet, or is lost.
@@ -417,7 +434,7 @@ impl NativeDem {
         let (force, torque) = (&s.force, &s.torque);
         let (inv_mass, inv_inertia) = (&s.inv_mass, &s.inv_inertia);
         let bounds = &self.bounds;
-        team.run(&|c| {
+        team.run(bounds.len() - 1, &|c| {
             let (lo, hi) = (bounds[c], bounds[c + 1]);
             // SAFETY: the chunks [bounds[c], bounds[c+1]) are disjoint, and so is slot c.
             let (v, x, w, vp, wp, res) = unsafe {
@@ -476,7 +493,7 @@ impl NativeDem {
             }
             *res = (ok, disp2);
         });
-        self.chunk_result
+        self.chunk_result[..self.bounds.len() - 1]
             .iter()
             .fold((true, 0.0), |(ok, d), &(o, e)| (ok && o, d.max(e)))
     }
@@ -637,7 +654,8 @@ impl ForceJob<'_> {
         };
         let (start, partner) = (&nl.start, &nl.partner);
         let bounds = self.bounds;
-        team.run(&|c| {
+        let active = bounds.len() - 1;
+        team.run(active, &|c| {
             let (lo, hi) = (bounds[c], bounds[c + 1]);
             let (hlo, hhi) = (start[lo] as usize, start[hi] as usize);
             // SAFETY: chunk c owns grains [lo, hi), their pair rows [start[lo], start[hi]),
@@ -659,7 +677,7 @@ impl ForceJob<'_> {
             chunk_forces(laws, &set, g, start, partner, out);
         });
         // Partner shares across chunk boundaries and wall forces, in chunk order.
-        for spill in self.spills.iter() {
+        for spill in self.spills[..active].iter() {
             for sp in spill {
                 let j = sp.j as usize;
                 vec3::add_assign(&mut s.force[j], sp.force);
@@ -670,7 +688,7 @@ impl ForceJob<'_> {
         }
         for w in 0..nw {
             self.wall_force[w] = [0.0; 3];
-            for acc in self.chunk_wall_force.iter() {
+            for acc in self.chunk_wall_force[..active].iter() {
                 vec3::add_assign(&mut self.wall_force[w], acc[w]);
             }
         }
@@ -708,25 +726,8 @@ impl DemBackend for NativeDem {
         if steps == 0 {
             return Ok(());
         }
-        let team = Team::new(self.cfg.threads);
-        if team.members() == 1 {
-            return self.advance_with(steps, &team);
-        }
-        std::thread::scope(|scope| {
-            for member in 1..team.members() {
-                let t = &team;
-                scope.spawn(move || t.work(member));
-            }
-            // Stop the workers however the steps end (error or panic).
-            struct StopOnDrop<'a>(&'a Team);
-            impl Drop for StopOnDrop<'_> {
-                fn drop(&mut self) {
-                    self.0.stop();
-                }
-            }
-            let _stop = StopOnDrop(&team);
-            self.advance_with(steps, &team)
-        })
+        let team = self.threads.team();
+        self.advance_with(steps, &team)
     }
 
     fn particles(&self) -> ParticleView<'_> {

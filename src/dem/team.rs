@@ -2,10 +2,10 @@
 //!
 //! A DEM step of a few thousand grains lasts ~100 µs; waking a sleeping pool thread for each
 //! of its parallel phases costs a good part of that (rayon measured 1.1–1.5× on two cores).
-//! The team lives for one `advance(n)` call: its workers spin between phases, so a phase
-//! starts within a cache-line transfer. Chunk `c` of a phase always runs on the same thread
-//! and the chunk boundaries are fixed between neighbour builds, so results are bitwise
-//! reproducible for a given thread count.
+//! The team's workers live as long as the engine and spin between phases, so a phase starts
+//! within a cache-line transfer; after ~10 ms without work they fall back to short sleeps.
+//! Chunk `c` of a phase always runs on member `c` and the chunk boundaries are fixed between
+//! neighbour builds, so results are bitwise reproducible for a given thread count.
 
 use std::sync::atomic::{AtomicBool, AtomicPtr, AtomicUsize, Ordering};
 
@@ -16,6 +16,8 @@ pub struct Team {
     members: usize,
     epoch: AtomicUsize,
     remaining: AtomicUsize,
+    /// Members taking part in the current job (the rest sit it out).
+    active: AtomicUsize,
     job: AtomicPtr<()>,
     stop: AtomicBool,
     worker_panicked: AtomicBool,
@@ -28,6 +30,7 @@ impl Team {
             members: members.max(1),
             epoch: AtomicUsize::new(0),
             remaining: AtomicUsize::new(0),
+            active: AtomicUsize::new(0),
             job: AtomicPtr::new(std::ptr::null_mut()),
             stop: AtomicBool::new(false),
             worker_panicked: AtomicBool::new(false),
@@ -39,9 +42,10 @@ impl Team {
         self.members
     }
 
-    /// Run `f(c)` for every member c (the caller runs c = 0) and wait for all of them.
-    pub fn run(&self, f: &(dyn Fn(usize) + Sync)) {
-        if self.members == 1 {
+    /// Run `f(c)` for members c < `active` (the caller runs c = 0) and wait for them.
+    pub fn run(&self, active: usize, f: &(dyn Fn(usize) + Sync)) {
+        let active = active.clamp(1, self.members);
+        if active == 1 {
             f(0);
             return;
         }
@@ -51,7 +55,8 @@ impl Team {
         // `remaining` is zero.
         self.job
             .store(&job as *const Job<'_> as *mut (), Ordering::Relaxed);
-        self.remaining.store(self.members - 1, Ordering::Relaxed);
+        self.active.store(active, Ordering::Relaxed);
+        self.remaining.store(active - 1, Ordering::Relaxed);
         self.epoch.fetch_add(1, Ordering::Release);
         // Even if our own chunk panics, the workers must be done with `f` before it dies.
         let own = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| f(0)));
@@ -82,6 +87,9 @@ impl Team {
             }
             seen = e;
             spins = 0;
+            if member >= self.active.load(Ordering::Relaxed) {
+                continue;
+            }
             let ptr = self.job.load(Ordering::Relaxed) as *const Job<'_>;
             // SAFETY: `run` published a pointer to a live `&dyn Fn` before bumping the epoch
             // (Release, paired with our Acquire) and keeps it alive until we decrement
@@ -100,14 +108,50 @@ impl Team {
     }
 }
 
-/// Spin politely: pause instructions first, then yield the core while waiting long (a
-/// neighbour rebuild or the inlet runs serially on member 0).
+/// Spin politely: pause instructions first, then yield the core (a neighbour rebuild or the
+/// gas step runs serially on member 0), then, idle for long, sleep in 100 µs naps.
 fn spin(spins: &mut u32) {
     *spins = spins.saturating_add(1);
     if *spins < 20_000 {
         std::hint::spin_loop();
-    } else {
+    } else if *spins < 30_000 {
         std::thread::yield_now();
+    } else {
+        std::thread::sleep(std::time::Duration::from_micros(100));
+    }
+}
+
+/// A team with its worker threads; dropping it stops and joins them.
+pub struct TeamThreads {
+    team: std::sync::Arc<Team>,
+    handles: Vec<std::thread::JoinHandle<()>>,
+}
+
+impl TeamThreads {
+    /// Start `members − 1` workers (none for one member).
+    pub fn start(members: usize) -> Self {
+        let team = std::sync::Arc::new(Team::new(members));
+        let handles = (1..team.members())
+            .map(|m| {
+                let t = team.clone();
+                std::thread::spawn(move || t.work(m))
+            })
+            .collect();
+        Self { team, handles }
+    }
+
+    /// The control block.
+    pub fn team(&self) -> std::sync::Arc<Team> {
+        self.team.clone()
+    }
+}
+
+impl Drop for TeamThreads {
+    fn drop(&mut self) {
+        self.team.stop();
+        for h in self.handles.drain(..) {
+            let _ = h.join();
+        }
     }
 }
 
@@ -163,7 +207,7 @@ mod tests {
             }
             for round in 0..1000u64 {
                 let shared = Shared::new(&mut data);
-                team.run(&|c| {
+                team.run(3, &|c| {
                     // SAFETY: chunks 0..10, 10..20, 20..30 are disjoint.
                     let part = unsafe { shared.range(10 * c, 10 * c + 10) };
                     for x in part.iter_mut() {

@@ -424,12 +424,113 @@ fn check(f: &SceneFile) -> Result<(), SceneError> {
     if f.output.sample_interval.si <= 0.0 {
         return Err(field_err("output.sample_interval", "must be positive"));
     }
+    check_gas(f)?;
     if let Some(s) = f.output.settling_time {
         if s.si < 0.0 || s.si >= f.duration.si {
             return Err(field_err(
                 "output.settling_time",
                 "must lie in [0, duration): means are taken after it",
             ));
+        }
+    }
+    Ok(())
+}
+
+fn check_gas(f: &SceneFile) -> Result<(), SceneError> {
+    let Some(g) = &f.gas else {
+        if f.coupling.is_some() {
+            return Err(field_err("coupling", "coupling needs a [gas] section"));
+        }
+        return Ok(());
+    };
+    if f.tube.is_none() {
+        return Err(field_err(
+            "gas",
+            "the gas is solved in a [tube]; the scene has none",
+        ));
+    }
+    if g.model != "darcy" {
+        return Err(field_err(
+            "gas.model",
+            format!("unknown gas model `{}` (this build has: darcy)", g.model),
+        ));
+    }
+    if g.viscosity.si <= 0.0 {
+        return Err(field_err("gas.viscosity", "must be positive"));
+    }
+    if g.pressure.si <= 0.0 {
+        return Err(field_err(
+            "gas.pressure",
+            "must be positive (absolute pressure P0)",
+        ));
+    }
+    match (g.superficial_velocity, g.flow) {
+        (Some(v), None) if v.si < 0.0 => {
+            return Err(field_err("gas.superficial_velocity", "must be ≥ 0"))
+        }
+        (None, Some(q)) if q.si < 0.0 => return Err(field_err("gas.flow", "must be ≥ 0")),
+        (Some(_), Some(_)) => {
+            return Err(field_err(
+                "gas.flow",
+                "give `superficial_velocity` or `flow`, not both",
+            ))
+        }
+        (None, None) => return Err(field_err(
+            "gas.superficial_velocity",
+            "missing: give `superficial_velocity` (e.g. \"1 m/s\") or `flow` (e.g. \"2.3 l/min\")",
+        )),
+        _ => {}
+    }
+    let [nz, nx, ny] = g.grid;
+    if nz < 2 {
+        return Err(field_err(
+            "gas.grid",
+            "needs at least 2 nodes along the axis",
+        ));
+    }
+    if !(1..=2).contains(&nx) || !(1..=2).contains(&ny) {
+        return Err(field_err(
+            "gas.grid",
+            "across the tube 1 or 2 nodes per direction (finer cross-sections would need \
+             wall-cut cells with vanishing volume, not supported)",
+        ));
+    }
+    match (g.scheme, g.theta) {
+        (GasScheme::Theta, None) => {
+            return Err(field_err("gas.theta", "missing: the theta scheme needs it"))
+        }
+        (GasScheme::Theta, Some(t)) if !(0.5..=1.0).contains(&t.0) => {
+            return Err(field_err(
+                "gas.theta",
+                "must lie in [0.5, 1] (below ½ the scheme is unstable for stiff diffusion)",
+            ))
+        }
+        (s, Some(_)) if s != GasScheme::Theta => {
+            return Err(field_err("gas.theta", "only the theta scheme takes it"))
+        }
+        _ => {}
+    }
+    let (lo, hi) = (g.porosity_min.0, g.porosity_max.0);
+    if !(lo > 0.0 && lo < hi && hi < 1.0) {
+        return Err(field_err(
+            "gas.porosity_min",
+            "the clamp needs 0 < porosity_min < porosity_max < 1",
+        ));
+    }
+    if let Some(c) = &f.coupling {
+        if c.drag != "darcy" {
+            return Err(field_err(
+                "coupling.drag",
+                format!(
+                    "unknown drag law `{}` for the darcy gas (it takes: darcy)",
+                    c.drag
+                ),
+            ));
+        }
+        if let Some(i) = c.interval {
+            if i.si <= 0.0 {
+                return Err(field_err("coupling.interval", "must be positive"));
+            }
         }
     }
     Ok(())

@@ -7,7 +7,7 @@ use serde::Deserialize;
 
 use super::units::{
     Acceleration, Damping, Density, Finite, Length, MassFlow, Pressure, Rate, Stiffness, Time,
-    Velocity, Q,
+    Velocity, Viscosity, VolumeFlow, Q,
 };
 
 /// Current schema version; a scene must state it.
@@ -49,6 +49,94 @@ pub struct SceneFile {
     /// Output settings.
     #[serde(default)]
     pub output: OutputSpec,
+    /// The gas phase. Absent: no gas is solved (dry DEM).
+    pub gas: Option<GasSpec>,
+    /// Gas–grain coupling (needs `[gas]`).
+    pub coupling: Option<CouplingSpec>,
+}
+
+/// Time scheme of the gas solver.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum GasScheme {
+    /// θ = 1: first order, L-stable.
+    BackwardEuler,
+    /// θ = ½: second order, rings at sharp porosity jumps (not L-stable).
+    CrankNicolson,
+    /// θ from `gas.theta`.
+    Theta,
+    /// Second-order backward differences: second order and L-stable.
+    Bdf2,
+}
+
+/// Linear solution path of the gas solver.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum GasSolverPath {
+    /// Sparse Cholesky of the whole system (reference).
+    Monolithic,
+    /// Tridiagonal sweeps direction by direction (fast, O(Δt) splitting error).
+    Splitting,
+}
+
+/// The gas: McNamara–Flekkøy pressure diffusion (`model = "darcy"`).
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct GasSpec {
+    /// `darcy`.
+    pub model: String,
+    /// (Effective) dynamic viscosity η, Pa·s.
+    pub viscosity: Q<Viscosity>,
+    /// Background pressure P0, Pa.
+    pub pressure: Q<Pressure>,
+    /// Superficial gas velocity v_s at the inlet, m/s (give this or `flow`).
+    pub superficial_velocity: Option<Q<Velocity>>,
+    /// Volume flow of gas at P0, m³/s (v_s = 4 V̇ / (π D²)).
+    pub flow: Option<Q<VolumeFlow>>,
+    /// Nodes along the axis and across the tube, e.g. `[150, 2, 2]` (across: 1 or 2).
+    pub grid: [usize; 3],
+    /// Time scheme. Default `bdf2`.
+    #[serde(default = "default_scheme")]
+    pub scheme: GasScheme,
+    /// θ of the `theta` scheme, in [0.5, 1].
+    pub theta: Option<Finite>,
+    /// Linear solution path. Default `monolithic`.
+    #[serde(default = "default_path")]
+    pub solver: GasSolverPath,
+    /// Porosity clamp, lower bound. Default 0.3.
+    #[serde(default = "default_phi_min")]
+    pub porosity_min: Finite,
+    /// Porosity clamp, upper bound (κ diverges at φ = 1). Default 0.99.
+    #[serde(default = "default_phi_max")]
+    pub porosity_max: Finite,
+}
+
+fn default_scheme() -> GasScheme {
+    GasScheme::Bdf2
+}
+fn default_path() -> GasSolverPath {
+    GasSolverPath::Monolithic
+}
+fn default_phi_min() -> Finite {
+    Finite(0.3)
+}
+fn default_phi_max() -> Finite {
+    Finite(0.99)
+}
+
+/// Gas–grain coupling.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CouplingSpec {
+    /// Coupling interval Δt_c, s: a whole number of DEM steps. Default 10 DEM steps.
+    pub interval: Option<Q<Time>>,
+    /// Drag law: `darcy` (the seeds' volume force). Default `darcy`.
+    #[serde(default = "default_drag")]
+    pub drag: String,
+}
+
+fn default_drag() -> String {
+    "darcy".into()
 }
 
 fn default_seed() -> u64 {
