@@ -56,7 +56,7 @@ fn main() -> ExitCode {
             let checked = Scene::load(&scene, &set).and_then(|s| {
                 let c = DemConfig::from_scene(&s)?;
                 plugflow::dem::NativeDem::new(c.clone())?;
-                let gas = plugflow::cosim::GasCoupling::from_scene(&s, &c)?;
+                let gas = plugflow::cosim::coupling_from_scene(&s, &c)?;
                 Ok((s, c, gas))
             });
             match checked {

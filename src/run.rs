@@ -8,11 +8,11 @@ use std::time::Instant;
 use plugflow_coupling::{BackendError, DemBackend};
 use serde_json::{json, Map, Value};
 
-use crate::cosim::{GasCoupling, Verdict};
+use crate::cosim::{check_json, coupling_from_scene};
 use crate::dem::{DemConfig, NativeDem};
 use crate::scene::{Scene, SceneError};
 use crate::Real;
-use plugflow_coupling::GasSolver;
+use plugflow_coupling::{ExchangeError, Verdict};
 
 /// What can end a run.
 #[derive(Debug, thiserror::Error)]
@@ -25,10 +25,7 @@ pub enum RunError {
     Backend { time: Real, source: BackendError },
     /// The gas or the exchange failed (NaN pressure, drag).
     #[error("run stopped at t = {time:.6} s: {source}")]
-    Exchange {
-        time: Real,
-        source: crate::cosim::ExchangeError,
-    },
+    Exchange { time: Real, source: ExchangeError },
     /// Output could not be written.
     #[error("cannot write `{path}`: {source}")]
     Io {
@@ -66,7 +63,7 @@ pub fn build_engine(scene: &Scene) -> Result<NativeDem, SceneError> {
 /// Run a scene to its end.
 pub fn run(scene: &Scene, opts: &RunOptions) -> Result<RunOutcome, RunError> {
     let mut dem = build_engine(scene)?;
-    let mut gas = GasCoupling::from_scene(scene, dem.config())?;
+    let mut gas = coupling_from_scene(scene, dem.config())?;
     let out_dir = opts
         .out_dir
         .clone()
@@ -252,7 +249,7 @@ pub fn run(scene: &Scene, opts: &RunOptions) -> Result<RunOutcome, RunError> {
         );
         o.insert(
             "coupling_checks".into(),
-            Value::Array(g.checks.iter().map(|c| c.to_json()).collect()),
+            Value::Array(g.checks.iter().map(check_json).collect()),
         );
         o.insert("coupling_interval_s".into(), json!(g.interval));
         o.insert("gas_model".into(), json!(g.gas.name()));

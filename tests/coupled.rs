@@ -3,11 +3,11 @@
 
 mod common;
 
-use plugflow::cosim::GasCoupling;
+use plugflow::cosim::coupling_from_scene;
 use plugflow::dem::{DemConfig, NativeDem};
 use plugflow::gas::carman_kozeny;
 use plugflow::scene::Scene;
-use plugflow_coupling::{DemBackend, GasSolver};
+use plugflow_coupling::{Coupler, DemBackend};
 
 const ETA: f64 = 6.73e-5;
 const D: f64 = 1.4e-3;
@@ -51,11 +51,11 @@ interval = "2e-5 s"
 }
 
 /// A settled bed (gas off while it settles) and its coupling.
-fn settled(v_s: f64, wall_friction: f64) -> (NativeDem, GasCoupling) {
+fn settled(v_s: f64, wall_friction: f64) -> (NativeDem, Coupler) {
     let scene = Scene::parse(&bed_scene(v_s, wall_friction), &[]).unwrap();
     let cfg = DemConfig::from_scene(&scene).unwrap();
     let mut dem = NativeDem::new(cfg.clone()).unwrap();
-    let coupling = GasCoupling::from_scene(&scene, &cfg).unwrap().unwrap();
+    let coupling = coupling_from_scene(&scene, &cfg).unwrap().unwrap();
     let dt = dem.time_step();
     dem.advance((0.4 / dt) as u64).unwrap();
     (dem, coupling)

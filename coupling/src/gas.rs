@@ -1,7 +1,7 @@
 //! The gas-solver trait: advance the gas over one coupling interval given the granular
 //! fields, then answer pressure and its gradient on the nodes.
 
-use crate::grid::GranularFields;
+use crate::grid::{GranularFields, TubeGrid};
 use crate::{Real, Vec3};
 
 /// What one gas step reports.
@@ -32,6 +32,10 @@ pub enum GasError {
 pub trait GasSolver {
     /// Name as the scene writes it.
     fn name(&self) -> &'static str;
+    /// The grid the solver works on.
+    fn grid(&self) -> &TubeGrid;
+    /// Change the inlet's superficial gas velocity, m/s (ramps, step changes).
+    fn set_superficial_velocity(&mut self, v: Real);
     /// Advance over `dt` seconds with the given granular fields.
     fn step(&mut self, fields: &GranularFields, dt: Real) -> Result<GasStepReport, GasError>;
     /// Pressure P' = P − P0 on the nodes, Pa.

@@ -2,17 +2,21 @@
 //!
 //! This crate owns the interfaces every engine and solver plugs into and nothing engine
 //! specific: the [`DemBackend`] trait that the built-in DEM (and, through the C ABI, LIGGGHTS
-//! and YADE) implements, the borrowed [`ParticleView`] the coupling reads grains through, and
-//! the [`StageTimer`] that times each named stage of a step (shared/DESIGN.md, "The step").
+//! and YADE) implements, the borrowed [`ParticleView`] the coupling reads grains through, the
+//! [`GasSolver`] and [`DragLaw`] traits, the grid with its deposit/interpolation kernels
+//! ([`grid`]), the co-simulation driver with its coupling checks ([`driver`]), and the
+//! [`StageTimer`] that times each named stage of a step (shared/DESIGN.md, "The step").
 
 pub mod backend;
 pub mod drag;
+pub mod driver;
 pub mod gas;
 pub mod grid;
 pub mod timing;
 
 pub use backend::{BackendError, DemBackend, ImplicitDrag, NewParticle, ParticleView, WallForce};
 pub use drag::{DarcyVolumeForce, DragLaw, GrainInFluid};
+pub use driver::{Coupler, CouplingCheck, ExchangeError, Verdict};
 pub use gas::{GasError, GasSolver, GasStepReport};
 pub use grid::{deposit, GranularFields, Stencil, TubeGrid};
 pub use timing::StageTimer;

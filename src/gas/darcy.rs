@@ -174,21 +174,11 @@ impl DarcyGas {
         }
     }
 
-    /// The grid.
-    pub fn grid(&self) -> &TubeGrid {
-        &self.grid
-    }
-
     /// Set P' on the nodes (tests and restarts), Pa; forgets the previous step.
     pub fn set_pressure(&mut self, p: &[Real]) {
         self.p.copy_from_slice(p);
         self.p_prev.copy_from_slice(p);
         self.last_dt = None;
-    }
-
-    /// Change the inlet's superficial velocity, m/s.
-    pub fn set_superficial_velocity(&mut self, v: Real) {
-        self.params.superficial_velocity = v;
     }
 
     /// Fill conductances, storage and sources for the fields of this step.
@@ -398,6 +388,14 @@ impl DarcyGas {
 impl GasSolver for DarcyGas {
     fn name(&self) -> &'static str {
         "darcy"
+    }
+
+    fn grid(&self) -> &TubeGrid {
+        &self.grid
+    }
+
+    fn set_superficial_velocity(&mut self, v: Real) {
+        self.params.superficial_velocity = v;
     }
 
     fn step(&mut self, fields: &GranularFields, dt: Real) -> Result<GasStepReport, GasError> {
