@@ -1,0 +1,33 @@
+//! Drag laws: the force of the gas on one grain from the fields at its position. One file
+//! per law behind [`DragLaw`]: `darcy` (the seeds' volume force, 000 and 002).
+
+mod darcy;
+
+pub use darcy::DarcyVolumeForce;
+
+use crate::{Real, Vec3};
+
+/// What a drag law knows about a grain and the gas around it.
+#[derive(Debug, Clone, Copy)]
+pub struct GrainInFluid {
+    /// Grain volume, m³.
+    pub volume: Real,
+    /// Grain diameter, m.
+    pub diameter: Real,
+    /// Grain velocity, m/s.
+    pub velocity: Vec3,
+    /// Porosity at the grain (eq. 9), clamped as the gas solver clamps it.
+    pub porosity: Real,
+    /// Pressure gradient at the grain, Pa/m.
+    pub pressure_gradient: Vec3,
+    /// Gas velocity at the grain, m/s (solvers that carry one).
+    pub gas_velocity: Vec3,
+}
+
+/// A drag law.
+pub trait DragLaw: Send + Sync {
+    /// Name as the scene writes it.
+    fn name(&self) -> &'static str;
+    /// Force of the gas on the grain, N.
+    fn force(&self, grain: &GrainInFluid) -> Vec3;
+}
