@@ -7,6 +7,7 @@
 // Index loops over several structure-of-arrays columns at once read better than zips.
 #![allow(clippy::needless_range_loop)]
 
+pub mod analysis;
 pub mod cosim;
 pub mod dem;
 pub mod gas;

@@ -8,6 +8,8 @@ use std::time::Instant;
 use plugflow_coupling::{BackendError, DemBackend};
 use serde_json::{json, Map, Value};
 
+use crate::analysis::plugs::{median, PlugObservation, PlugTracker, Slicer};
+use crate::analysis::targets;
 use crate::cosim::{check_json, coupling_from_scene};
 use crate::dem::{DemConfig, NativeDem};
 use crate::scene::{Scene, SceneError};
@@ -118,6 +120,15 @@ pub fn run(scene: &Scene, opts: &RunOptions) -> Result<RunOutcome, RunError> {
     let mut failure = None;
     let mut done = 0u64;
     let mut dp_sum = 0.0;
+    // Plug statistics on the tube's slices, from the settling time on.
+    let mut tracker = dem.config().tube.map(|t| {
+        let slice = f.output.slice_length.map(|q| q.si).unwrap_or(3.5e-3);
+        let r = 0.5 * (dem.config().radius_min + dem.config().radius_max);
+        PlugTracker::new(
+            Slicer::new(t.origin, t.axis, t.radius, t.length, slice),
+            4.0 / 3.0 * std::f64::consts::PI * r * r * r,
+        )
+    });
     let mut porosity_rows: Vec<Vec<Real>> = Vec::new();
     'run: while done < total_steps {
         let n = per_sample.min(total_steps - done);
@@ -166,6 +177,13 @@ pub fn run(scene: &Scene, opts: &RunOptions) -> Result<RunOutcome, RunError> {
             in_tube_sum += in_tube as Real;
             dp_sum += dp.unwrap_or(0.0);
             in_tube_n += 1;
+            if let Some(tr) = tracker.as_mut() {
+                let p = dem.particles();
+                let frame = tr
+                    .slicer()
+                    .frame(dem.time(), p.position, p.velocity, p.radius);
+                tr.push(&frame);
+            }
         }
         if let Some(b) = &bar {
             b.set_position(done);
@@ -228,6 +246,34 @@ pub fn run(scene: &Scene, opts: &RunOptions) -> Result<RunOutcome, RunError> {
         "threads": cfg.threads,
     });
     let mut summary = summary;
+    if let (Some(tr), Some(tube)) = (&tracker, dem.config().tube) {
+        let o = summary.as_object_mut().expect("summary is an object");
+        // Mid tube: plug centres within ±10 % of the tube length around its middle (the
+        // seeds' statistics at z = 0.26 m of 0.525 m).
+        let mid = |c: Real| (c / tube.length - 0.5).abs() <= 0.1;
+        let at_mid: Vec<&PlugObservation> =
+            tr.observations.iter().filter(|p| mid(p.centre)).collect();
+        let tracks: std::collections::HashSet<u64> = at_mid.iter().map(|p| p.track).collect();
+        let span = (dem.time() - settle).max(1e-12);
+        o.insert(
+            "plug_velocity_m_s".into(),
+            json!(median(at_mid.iter().filter_map(|p| p.velocity).collect())),
+        );
+        o.insert(
+            "plug_max_granular_velocity_m_s".into(),
+            json!(median(at_mid.iter().map(|p| p.max_velocity).collect())),
+        );
+        o.insert(
+            "plug_length_m".into(),
+            json!(median(at_mid.iter().map(|p| p.length).collect())),
+        );
+        o.insert(
+            "plug_min_porosity".into(),
+            json!(median(at_mid.iter().map(|p| p.min_porosity).collect())),
+        );
+        o.insert("plug_rate_per_s".into(), json!(tracks.len() as Real / span));
+        o.insert("plugs_observed_mid_tube".into(), json!(tracks.len()));
+    }
     if let Some(g) = &gas {
         let o = summary.as_object_mut().expect("summary is an object");
         o.insert(
@@ -254,6 +300,13 @@ pub fn run(scene: &Scene, opts: &RunOptions) -> Result<RunOutcome, RunError> {
         o.insert("coupling_interval_s".into(), json!(g.interval));
         o.insert("gas_model".into(), json!(g.gas.name()));
         write_porosity_image(&out_dir, &porosity_rows, scene)?;
+    }
+    if !f.output.reproduces.is_empty() {
+        let t = targets::evaluate(&f.output.reproduces, &summary);
+        summary
+            .as_object_mut()
+            .expect("summary is an object")
+            .insert("targets".into(), t);
     }
     write_json(&out_dir.join("summary.json"), &summary)?;
     match failure {

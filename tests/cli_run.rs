@@ -143,6 +143,17 @@ fn coupled_run_reports_gas_numbers_and_checks() {
     for st in ["deposit", "gas", "interpolate_drag", "set_forces", "forces"] {
         assert!(stages.contains_key(st), "stage `{st}` missing: {stages:?}");
     }
+    // The case names TARGETS.md rows V1–V5: each listed with measured, paper, band, verdict.
+    let targets = s["targets"].as_array().unwrap();
+    let ids: Vec<&str> = targets.iter().map(|t| t["id"].as_str().unwrap()).collect();
+    assert_eq!(ids, ["V1", "V2", "V3", "V4", "V5"]);
+    for t in targets {
+        assert!(
+            t["paper"].as_f64().is_some() && t["band"].as_array().unwrap().len() == 2,
+            "{t}"
+        );
+        assert!(t["inside"].is_boolean(), "{t}");
+    }
     let png = std::fs::read(out.join("porosity_tz.png")).unwrap();
     assert_eq!(&png[1..4], b"PNG");
     std::fs::remove_dir_all(&out).ok();

@@ -425,6 +425,23 @@ fn check(f: &SceneFile) -> Result<(), SceneError> {
         return Err(field_err("output.sample_interval", "must be positive"));
     }
     check_gas(f)?;
+    for (k, id) in f.output.reproduces.iter().enumerate() {
+        if crate::analysis::targets::find(id).is_none() {
+            let known: Vec<&str> = crate::analysis::targets::TARGETS
+                .iter()
+                .map(|t| t.id)
+                .collect();
+            return Err(field_err(
+                format!("output.reproduces[{k}]"),
+                format!("unknown target `{id}` (known: {})", known.join(", ")),
+            ));
+        }
+    }
+    if let Some(s) = f.output.slice_length {
+        if s.si <= 0.0 {
+            return Err(field_err("output.slice_length", "must be positive"));
+        }
+    }
     if let Some(s) = f.output.settling_time {
         if s.si < 0.0 || s.si >= f.duration.si {
             return Err(field_err(

@@ -378,6 +378,12 @@ pub struct OutputSpec {
     /// Time before which samples do not enter the means (the tube fills), s. Default 0.
     #[serde(default)]
     pub settling_time: Option<Q<Time>>,
+    /// Slice length of the plug statistics, m. Default 3.5 mm (the seeds').
+    pub slice_length: Option<Q<Length>>,
+    /// Rows of shared/TARGETS.md this case reproduces (e.g. `["V1", "V2"]`); the summary
+    /// lists each with the measured value, the paper's and the band.
+    #[serde(default)]
+    pub reproduces: Vec<String>,
 }
 
 impl Default for OutputSpec {
@@ -385,6 +391,8 @@ impl Default for OutputSpec {
         Self {
             sample_interval: default_sample(),
             settling_time: None,
+            slice_length: None,
+            reproduces: Vec::new(),
         }
     }
 }

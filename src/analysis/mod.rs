@@ -1,0 +1,5 @@
+//! Analysis of a run: plug statistics (seed 000 §4.2, seed 002 §3.2) and the comparison
+//! with the papers' numbers (shared/TARGETS.md).
+
+pub mod plugs;
+pub mod targets;

@@ -1,0 +1,120 @@
+//! The rows of shared/TARGETS.md a case can reproduce: paper value and accepted band.
+
+use serde_json::{json, Value};
+
+use crate::Real;
+
+/// One target row.
+#[derive(Debug, Clone, Copy)]
+pub struct Target {
+    /// Row id in TARGETS.md.
+    pub id: &'static str,
+    /// Summary key holding the measured value.
+    pub key: &'static str,
+    /// What it is.
+    pub what: &'static str,
+    /// The paper's value (in the summary key's unit).
+    pub paper: Real,
+    /// Accepted band [lo, hi].
+    pub band: (Real, Real),
+}
+
+/// Rows with a single measured number (the others need sweeps or profiles).
+pub const TARGETS: &[Target] = &[
+    Target {
+        id: "V1",
+        key: "pressure_drop_hpa_per_m",
+        what: "pressure drop at v_s = 1 m/s, hPa/m",
+        paper: 39.0,
+        band: (30.0, 50.0),
+    },
+    Target {
+        id: "V2",
+        key: "particles_in_tube_mean",
+        what: "mean grains in the tube",
+        paper: 3600.0,
+        band: (2700.0, 4500.0),
+    },
+    Target {
+        id: "V3",
+        key: "plug_velocity_m_s",
+        what: "plug velocity at mid tube, m/s",
+        paper: 0.16,
+        band: (0.12, 0.30),
+    },
+    Target {
+        id: "V4",
+        key: "plug_length_m",
+        what: "plug length at mid tube, m",
+        paper: 0.024,
+        band: (0.01, 0.06),
+    },
+    Target {
+        id: "V5",
+        key: "plug_min_porosity",
+        what: "minimum porosity in plugs at mid tube",
+        paper: 0.47,
+        band: (0.43, 0.52),
+    },
+    Target {
+        id: "H1",
+        key: "pressure_drop_hpa_per_m",
+        what: "pressure drop at v_s = 1 m/s, hPa/m",
+        paper: 10.0,
+        band: (6.0, 15.0),
+    },
+    Target {
+        id: "H2",
+        key: "particles_in_tube_mean",
+        what: "mean grains in the tube",
+        paper: 3200.0,
+        band: (2400.0, 4000.0),
+    },
+    Target {
+        id: "H3",
+        key: "plug_velocity_m_s",
+        what: "slug velocity at mid tube, m/s",
+        paper: 0.29,
+        band: (0.2, 0.5),
+    },
+    Target {
+        id: "H4",
+        key: "plug_length_m",
+        what: "slug length at mid tube, m",
+        paper: 0.05,
+        band: (0.02, 0.10),
+    },
+    Target {
+        id: "H5",
+        key: "plug_min_porosity",
+        what: "minimum porosity in slugs",
+        paper: 0.49,
+        band: (0.44, 0.54),
+    },
+];
+
+/// The target with this id.
+pub fn find(id: &str) -> Option<&'static Target> {
+    TARGETS.iter().find(|t| t.id == id)
+}
+
+/// `targets` entries for the summary: measured beside paper, band and verdict.
+pub fn evaluate(ids: &[String], summary: &Value) -> Value {
+    Value::Array(
+        ids.iter()
+            .filter_map(|id| find(id))
+            .map(|t| {
+                let measured = summary.get(t.key).and_then(Value::as_f64);
+                json!({
+                    "id": t.id,
+                    "what": t.what,
+                    "measured": measured,
+                    "paper": t.paper,
+                    "band": [t.band.0, t.band.1],
+                    "ratio": measured.map(|m| m / t.paper),
+                    "inside": measured.is_some_and(|m| m >= t.band.0 && m <= t.band.1),
+                })
+            })
+            .collect(),
+    )
+}
