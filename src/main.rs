@@ -127,6 +127,41 @@ fn main() -> ExitCode {
                         sm["mass_outflow_kg_per_h"].as_f64().unwrap_or(0.0),
                         outcome.out_dir.join("summary.json").display()
                     );
+                    if let Some(dp) = sm.get("pressure_drop_hpa_per_m").and_then(|v| v.as_f64()) {
+                        println!("pressure drop {dp:.2} hPa/m (mean after the settling time)");
+                    }
+                    if let Some(targets) = sm.get("targets").and_then(|t| t.as_array()) {
+                        println!(
+                            "{:<4} {:<42} {:>10} {:>8} {:>16}  inside",
+                            "row", "what", "measured", "paper", "band"
+                        );
+                        for t in targets {
+                            let band = t["band"].as_array().cloned().unwrap_or_default();
+                            println!(
+                                "{:<4} {:<42} {:>10} {:>8} {:>16}  {}",
+                                t["id"].as_str().unwrap_or("?"),
+                                t["what"].as_str().unwrap_or(""),
+                                t["measured"]
+                                    .as_f64()
+                                    .map(|m| format!("{m:.4}"))
+                                    .unwrap_or_else(|| "—".into()),
+                                t["paper"]
+                                    .as_f64()
+                                    .map(|p| format!("{p}"))
+                                    .unwrap_or_default(),
+                                format!(
+                                    "{}–{}",
+                                    band.first().cloned().unwrap_or_default(),
+                                    band.get(1).cloned().unwrap_or_default()
+                                ),
+                                if t["inside"].as_bool() == Some(true) {
+                                    "yes"
+                                } else {
+                                    "no"
+                                }
+                            );
+                        }
+                    }
                     ExitCode::SUCCESS
                 }
                 Err(RunError::Scene(e)) => {
