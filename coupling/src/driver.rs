@@ -179,16 +179,14 @@ impl Coupler {
         let t = std::time::Instant::now();
         let grad = self.gas.pressure_gradient();
         let phi = self.gas.porosity();
-        let grid = self.gas.grid();
         let p = dem.particles();
         self.forces.clear();
         for i in 0..p.len() {
-            let (s, _, _) = grid.local(p.position[i]);
-            if !(0.0..=grid.length).contains(&s) {
+            // The grains have not moved since the deposit: reuse its stencils.
+            let Some(st) = self.fields.stencils[i] else {
                 self.forces.push([0.0; 3]);
                 continue;
-            }
-            let st = grid.stencil(p.position[i]);
+            };
             let r = p.radius[i];
             let grain = GrainInFluid {
                 volume: 4.0 / 3.0 * std::f64::consts::PI * r * r * r,

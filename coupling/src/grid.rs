@@ -212,13 +212,16 @@ impl TubeGrid {
     }
 }
 
-/// Granular fields on the nodes (eq. 8).
+/// Granular fields on the nodes (eq. 8), and the stencil of every grain that made them.
 #[derive(Debug, Clone, Default)]
 pub struct GranularFields {
     /// Porosity φ_j before clamping.
     pub porosity: Vec<Real>,
     /// Granular velocity u_j, m/s (zero where no grain contributes).
     pub velocity: Vec<Vec3>,
+    /// Tent weights of grain i (in the order deposited; `None` outside the tube's length),
+    /// kept so the interpolation back to the grains (eq. 9) does not compute them again.
+    pub stencils: Vec<Option<Stencil>>,
 }
 
 /// Deposit grains (centres `x`, velocities `v`, radii `r`) onto the grid. Grains outside the
@@ -227,13 +230,16 @@ pub fn deposit(grid: &TubeGrid, x: &[Vec3], v: &[Vec3], r: &[Real], out: &mut Gr
     let n = grid.len();
     let mut solid = vec![0.0; n];
     let mut momentum = vec![[0.0; 3]; n];
+    out.stencils.clear();
     for p in 0..x.len() {
         let (s, _, _) = grid.local(x[p]);
         if !(0.0..=grid.length).contains(&s) {
+            out.stencils.push(None);
             continue;
         }
         let vol = 4.0 / 3.0 * std::f64::consts::PI * r[p] * r[p] * r[p];
         let st = grid.stencil(x[p]);
+        out.stencils.push(Some(st));
         for q in 0..st.len as usize {
             let node = st.node[q] as usize;
             let wv = st.weight[q] * vol;
