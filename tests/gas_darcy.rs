@@ -23,6 +23,7 @@ fn uniform(grid: &TubeGrid, phi: f64) -> GranularFields {
     GranularFields {
         porosity: vec![phi; grid.len()],
         velocity: vec![[0.0; 3]; grid.len()],
+        stencils: Vec::new(),
     }
 }
 
