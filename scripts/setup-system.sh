@@ -1,16 +1,25 @@
 #!/usr/bin/env bash
-# Installs the system packages plugflow's tests and benchmarks need (as root, idempotent):
-# LIGGGHTS (reference engine for the benchmark and the cross-code tests) with its headers
-# and OpenMPI. Packages already present are left alone.
+# Installs the system packages plugflow needs (as root or through sudo, idempotent; packages
+# already present are left alone).
+#   --base  only what building and running plugflow needs: the HDF5 C library (run.h5)
+#           and pkg-config, which finds it.
+#   (none)  also what the tests and the benchmark need: LIGGGHTS with its headers and
+#           OpenMPI (reference engine), and h5py (reads run.h5 back from Python).
 set -euo pipefail
-pkgs=(liggghts libliggghts-dev libopenmpi-dev)
+pkgs=(libhdf5-dev pkg-config)
+if [ "${1:-}" != "--base" ]; then
+  pkgs+=(liggghts libliggghts-dev libopenmpi-dev)
+fi
 missing=()
 for p in "${pkgs[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
 done
+SUDO=""
+[ "$(id -u)" -eq 0 ] || SUDO="sudo"
 if [ ${#missing[@]} -gt 0 ]; then
-  SUDO=""
-  [ "$(id -u)" -eq 0 ] || SUDO="sudo"
   $SUDO apt-get update -qq
   DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq "${missing[@]}"
+fi
+if [ "${1:-}" != "--base" ]; then
+  python3 -c "import h5py" 2>/dev/null || python3 -m pip install -q --root-user-action=ignore h5py
 fi

@@ -11,6 +11,7 @@ pub mod analysis;
 pub mod cosim;
 pub mod dem;
 pub mod gas;
+pub mod output;
 pub mod png;
 pub mod rng;
 pub mod run;

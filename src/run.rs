@@ -12,6 +12,11 @@ use crate::analysis::plugs::{median, PlugObservation, PlugTracker, Slicer};
 use crate::analysis::targets;
 use crate::cosim::{check_json, coupling_from_scene};
 use crate::dem::{DemConfig, NativeDem};
+use crate::output::figures::{self, Curve, Panel};
+use crate::output::hdf5::{Hdf5Output, RunMeta};
+use crate::output::vtk::VtkOutput;
+use crate::output::{RunOutput, Sample};
+use crate::scene::schema::SnapshotFormat;
 use crate::scene::{Scene, SceneError};
 use crate::Real;
 use plugflow_coupling::{ExchangeError, Verdict};
@@ -28,6 +33,9 @@ pub enum RunError {
     /// The gas or the exchange failed (NaN pressure, drag).
     #[error("run stopped at t = {time:.6} s: {source}")]
     Exchange { time: Real, source: ExchangeError },
+    /// An output file (run.h5, VTK, figure) could not be written.
+    #[error(transparent)]
+    Output(#[from] crate::output::OutputError),
     /// Output could not be written.
     #[error("cannot write `{path}`: {source}")]
     Io {
@@ -130,6 +138,30 @@ pub fn run(scene: &Scene, opts: &RunOptions) -> Result<RunOutcome, RunError> {
         )
     });
     let mut porosity_rows: Vec<Vec<Real>> = Vec::new();
+    let mut dp_trace: Vec<(Real, Real)> = Vec::new();
+    let snapshot_spec = f.output.snapshots.as_ref();
+    let wants = |fmt: SnapshotFormat| snapshot_spec.is_some_and(|s| s.formats.contains(&fmt));
+    let mut outputs: Vec<Box<dyn RunOutput>> = Vec::new();
+    outputs.push(Box::new(Hdf5Output::create(
+        &out_dir.join("run.h5"),
+        &RunMeta {
+            scene_text: &scene.text,
+            engine: dem.engine_name(),
+            engine_version: &dem.engine_version(),
+            z_slices: tracker.as_ref().map(|t| {
+                let s = t.slicer();
+                (0..s.count).map(|k| (k as Real + 0.5) * s.slice).collect()
+            }),
+            z_gas: gas.as_ref().map(|g| g.axial_positions()),
+            snapshots: wants(SnapshotFormat::Hdf5),
+        },
+    )?));
+    if wants(SnapshotFormat::Vtk) {
+        outputs.push(Box::new(VtkOutput::new(&out_dir)));
+    }
+    let samples_per_snapshot =
+        snapshot_spec.map(|s| ((s.interval.si / (per_sample as Real * dt)).round() as u64).max(1));
+    let mut samples_taken = 0u64;
     'run: while done < total_steps {
         let n = per_sample.min(total_steps - done);
         match gas.as_mut() {
@@ -167,9 +199,18 @@ pub fn run(scene: &Scene, opts: &RunOptions) -> Result<RunOutcome, RunError> {
         done += n;
         let in_tube = dem.particles_in_tube();
         let dp = gas.as_ref().map(|g| g.pressure_drop());
-        if let Some(g) = &gas {
-            porosity_rows.push(g.porosity_profile());
+        let gas_porosity = gas.as_ref().map(|g| g.porosity_profile());
+        let gas_pressure = gas.as_ref().map(|g| g.pressure_profile());
+        if let (Some(p), Some(d)) = (&gas_porosity, dp) {
+            porosity_rows.push(p.clone());
+            dp_trace.push((dem.time(), d));
         }
+        let frame = tracker.as_ref().map(|tr| {
+            let p = dem.particles();
+            tr.slicer()
+                .frame(dem.time(), p.position, p.velocity, p.radius)
+        });
+        let plugs_before = tracker.as_ref().map_or(0, |t| t.observations.len());
         if dem.time() >= settle - 0.5 * dt {
             if outflow_at_settle.is_none() {
                 outflow_at_settle = Some((dem.time(), dem.flow.outflow_mass));
@@ -177,14 +218,36 @@ pub fn run(scene: &Scene, opts: &RunOptions) -> Result<RunOutcome, RunError> {
             in_tube_sum += in_tube as Real;
             dp_sum += dp.unwrap_or(0.0);
             in_tube_n += 1;
-            if let Some(tr) = tracker.as_mut() {
-                let p = dem.particles();
-                let frame = tr
-                    .slicer()
-                    .frame(dem.time(), p.position, p.velocity, p.radius);
-                tr.push(&frame);
+            if let (Some(tr), Some(fr)) = (tracker.as_mut(), &frame) {
+                tr.push(fr);
             }
         }
+        let sample = Sample {
+            time: dem.time(),
+            particles_in_tube: in_tube,
+            pressure_drop: dp,
+            slices: frame.as_ref(),
+            gas_porosity: gas_porosity.as_deref(),
+            gas_pressure: gas_pressure.as_deref(),
+            new_plugs: tracker
+                .as_ref()
+                .map_or(&[][..], |t| &t.observations[plugs_before..]),
+        };
+        let snapshot_due = samples_per_snapshot.is_some_and(|k| samples_taken.is_multiple_of(k));
+        for o in outputs.iter_mut() {
+            let written = o.sample(&sample).and_then(|_| {
+                if snapshot_due {
+                    o.snapshot(dem.time(), dem.step_count(), &dem.particles())
+                } else {
+                    Ok(())
+                }
+            });
+            if let Err(e) = written {
+                failure = Some(RunError::Output(e));
+                break 'run;
+            }
+        }
+        samples_taken += 1;
         if let Some(b) = &bar {
             b.set_position(done);
             b.set_message(format!(
@@ -299,7 +362,32 @@ pub fn run(scene: &Scene, opts: &RunOptions) -> Result<RunOutcome, RunError> {
         );
         o.insert("coupling_interval_s".into(), json!(g.interval));
         o.insert("gas_model".into(), json!(g.gas.name()));
-        write_porosity_image(&out_dir, &porosity_rows, scene)?;
+        write_porosity_image(&out_dir, &porosity_rows)?;
+        figures::panels(
+            &out_dir.join("pressure_drop.png"),
+            &[Panel {
+                title: "pressure drop".into(),
+                x_label: "time t (s)".into(),
+                y_label: "−dP/dz (hPa/m)".into(),
+                curves: vec![Curve::line(
+                    "",
+                    dp_trace.iter().map(|(t, d)| (*t, d / 100.0)).collect(),
+                )],
+            }],
+            900,
+            420,
+        )?;
+    }
+    if let (Some(tr), Some(tube)) = (&tracker, dem.config().tube) {
+        if !tr.observations.is_empty() {
+            figures::plug_statistics(
+                &out_dir.join("plug_statistics.png"),
+                &tr.observations,
+                tube.length,
+                (dem.time() - settle).max(1e-12),
+                0.025,
+            )?;
+        }
     }
     if !f.output.reproduces.is_empty() {
         let t = targets::evaluate(&f.output.reproduces, &summary);
@@ -325,7 +413,7 @@ fn write_json(path: &Path, v: &Value) -> Result<(), RunError> {
 
 /// The spatio-temporal porosity of seed 000 fig. 3: `porosity_tz.csv` (one row per sample,
 /// one column per slice) and `porosity_tz.png` (time across, tube axis up, dark = dense).
-fn write_porosity_image(dir: &Path, rows: &[Vec<Real>], scene: &Scene) -> Result<(), RunError> {
+fn write_porosity_image(dir: &Path, rows: &[Vec<Real>]) -> Result<(), RunError> {
     let io = |path: &Path, source| RunError::Io {
         path: path.display().to_string(),
         source,
@@ -354,6 +442,5 @@ fn write_porosity_image(dir: &Path, rows: &[Vec<Real>], scene: &Scene) -> Result
         .collect();
     let png = crate::png::grey(w as u32, h as u32, &pixels);
     let png_path = dir.join("porosity_tz.png");
-    let _ = scene;
     std::fs::write(&png_path, png).map_err(|e| io(&png_path, e))
 }

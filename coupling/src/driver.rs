@@ -222,6 +222,23 @@ impl Coupler {
 
     /// Deposited porosity along the axis (cross-section mean by accessible volume).
     pub fn porosity_profile(&self) -> Vec<Real> {
+        self.section_means(&self.fields.porosity, 1.0)
+    }
+
+    /// Gas pressure P − P0 along the axis, Pa (cross-section mean by accessible volume).
+    pub fn pressure_profile(&self) -> Vec<Real> {
+        self.section_means(self.gas.pressure(), 0.0)
+    }
+
+    /// Node positions along the axis, m (cell centres from the inlet end).
+    pub fn axial_positions(&self) -> Vec<Real> {
+        let g = self.gas.grid();
+        (0..g.nz).map(|k| (k as Real + 0.5) * g.dz).collect()
+    }
+
+    /// Volume-weighted cross-section means of a node field (`missing` where the field is
+    /// not yet filled).
+    fn section_means(&self, field: &[Real], missing: Real) -> Vec<Real> {
         let g = self.gas.grid();
         (0..g.nz)
             .map(|k| {
@@ -229,7 +246,7 @@ impl Coupler {
                 for j in 0..g.ny {
                     for i in 0..g.nx {
                         let n = g.node(k, i, j);
-                        s += self.fields.porosity.get(n).copied().unwrap_or(1.0) * g.volume[n];
+                        s += field.get(n).copied().unwrap_or(missing) * g.volume[n];
                         v += g.volume[n];
                     }
                 }

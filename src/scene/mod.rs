@@ -425,6 +425,17 @@ fn check(f: &SceneFile) -> Result<(), SceneError> {
         return Err(field_err("output.sample_interval", "must be positive"));
     }
     check_gas(f)?;
+    if let Some(sn) = &f.output.snapshots {
+        if sn.interval.si <= 0.0 {
+            return Err(field_err("output.snapshots.interval", "must be positive"));
+        }
+        if sn.formats.is_empty() {
+            return Err(field_err(
+                "output.snapshots.formats",
+                "names no format (use [\"hdf5\"], [\"vtk\"] or both), or drop the table",
+            ));
+        }
+    }
     for (k, id) in f.output.reproduces.iter().enumerate() {
         if crate::analysis::targets::find(id).is_none() {
             let known: Vec<&str> = crate::analysis::targets::TARGETS

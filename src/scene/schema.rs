@@ -384,6 +384,9 @@ pub struct OutputSpec {
     /// lists each with the measured value, the paper's and the band.
     #[serde(default)]
     pub reproduces: Vec<String>,
+    /// Particle snapshots (positions, velocities, radii, ids). None unless asked: a scene
+    /// without this table writes none and pays nothing for them.
+    pub snapshots: Option<SnapshotSpec>,
 }
 
 impl Default for OutputSpec {
@@ -393,8 +396,30 @@ impl Default for OutputSpec {
             settling_time: None,
             slice_length: None,
             reproduces: Vec::new(),
+            snapshots: None,
         }
     }
+}
+
+/// Particle snapshots written while the run goes.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SnapshotSpec {
+    /// Interval between snapshots, s (rounded up to whole sample intervals).
+    pub interval: Q<Time>,
+    /// Where: `"hdf5"` (group `/particles` of run.h5) and/or `"vtk"` (legacy VTK polydata
+    /// files `particles_NNNNNN.vtk`, a time series ParaView opens as one).
+    pub formats: Vec<SnapshotFormat>,
+}
+
+/// A particle snapshot format.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum SnapshotFormat {
+    /// Into run.h5.
+    Hdf5,
+    /// Legacy VTK files readable by ParaView.
+    Vtk,
 }
 
 fn default_sample() -> Q<Time> {

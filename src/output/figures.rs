@@ -1,0 +1,252 @@
+//! PNG figures of a run: the spatio-temporal porosity of seed 000 fig. 3, the pressure-drop
+//! trace, plug statistics along the tube with quartile bands (seed 000 figs. 10–12), and
+//! characteristic curves of sweeps. Drawn with plotters' bitmap backend; the font (DejaVu
+//! Sans, `assets/fonts/`, Bitstream Vera licence) is compiled in so figures need nothing
+//! from the machine.
+
+use std::path::Path;
+use std::sync::Once;
+
+use plotters::prelude::*;
+
+use super::OutputError;
+use crate::analysis::plugs::PlugObservation;
+use crate::Real;
+
+static FONT: &[u8] = include_bytes!("../../assets/fonts/DejaVuSans.ttf");
+static REGISTER: Once = Once::new();
+
+fn register_font() {
+    REGISTER.call_once(|| {
+        // The bytes are a valid TrueType font compiled into the binary.
+        let _ = plotters::style::register_font("sans-serif", FontStyle::Normal, FONT);
+    });
+}
+
+/// One curve of a panel.
+#[derive(Debug, Clone)]
+pub struct Curve {
+    /// Legend text.
+    pub label: String,
+    /// (x, y) points.
+    pub points: Vec<(Real, Real)>,
+    /// Draw markers only (measurements), not a line.
+    pub markers: bool,
+    /// Optional band (x, lo, hi) shaded behind the curve.
+    pub band: Vec<(Real, Real, Real)>,
+}
+
+impl Curve {
+    /// A plain line.
+    pub fn line(label: impl Into<String>, points: Vec<(Real, Real)>) -> Self {
+        Self {
+            label: label.into(),
+            points,
+            markers: false,
+            band: Vec::new(),
+        }
+    }
+}
+
+/// One panel: title, axis labels, curves.
+#[derive(Debug, Clone)]
+pub struct Panel {
+    /// Title above the panel.
+    pub title: String,
+    /// x-axis label.
+    pub x_label: String,
+    /// y-axis label.
+    pub y_label: String,
+    /// The curves.
+    pub curves: Vec<Curve>,
+}
+
+const COLOURS: [RGBColor; 4] = [
+    RGBColor(31, 119, 180),
+    RGBColor(214, 39, 40),
+    RGBColor(44, 160, 44),
+    RGBColor(148, 103, 189),
+];
+
+fn range(values: impl Iterator<Item = Real>) -> (Real, Real) {
+    let (mut lo, mut hi) = (Real::INFINITY, Real::NEG_INFINITY);
+    for v in values.filter(|v| v.is_finite()) {
+        lo = lo.min(v);
+        hi = hi.max(v);
+    }
+    if !lo.is_finite() {
+        return (0.0, 1.0);
+    }
+    if hi - lo < 1e-12 * (1.0 + lo.abs()) {
+        return (lo - 0.5 * (1.0 + lo.abs()), hi + 0.5 * (1.0 + hi.abs()));
+    }
+    let pad = 0.05 * (hi - lo);
+    (lo - pad, hi + pad)
+}
+
+/// Draw panels side by side (one row) into a PNG.
+pub fn panels(path: &Path, panels: &[Panel], width: u32, height: u32) -> Result<(), OutputError> {
+    register_font();
+    let err = |e: &dyn std::fmt::Display| OutputError::new(path.display(), e);
+    let root = BitMapBackend::new(path, (width, height)).into_drawing_area();
+    root.fill(&WHITE).map_err(|e| err(&e))?;
+    let areas = root.split_evenly((1, panels.len().max(1)));
+    for (panel, area) in panels.iter().zip(areas.iter()) {
+        let xs = panel.curves.iter().flat_map(|c| {
+            c.points
+                .iter()
+                .map(|p| p.0)
+                .chain(c.band.iter().map(|b| b.0))
+        });
+        let ys = panel.curves.iter().flat_map(|c| {
+            c.points
+                .iter()
+                .map(|p| p.1)
+                .chain(c.band.iter().flat_map(|b| [b.1, b.2]))
+        });
+        let (x0, x1) = range(xs);
+        let (y0, y1) = range(ys);
+        let mut chart = ChartBuilder::on(area)
+            .caption(&panel.title, ("sans-serif", 18))
+            .margin(10)
+            .x_label_area_size(40)
+            .y_label_area_size(60)
+            .build_cartesian_2d(x0..x1, y0..y1)
+            .map_err(|e| err(&e))?;
+        chart
+            .configure_mesh()
+            .x_desc(panel.x_label.as_str())
+            .y_desc(panel.y_label.as_str())
+            .label_style(("sans-serif", 13))
+            .draw()
+            .map_err(|e| err(&e))?;
+        for (k, c) in panel.curves.iter().enumerate() {
+            let colour = COLOURS[k % COLOURS.len()];
+            if !c.band.is_empty() {
+                let mut poly: Vec<(Real, Real)> = c.band.iter().map(|b| (b.0, b.1)).collect();
+                poly.extend(c.band.iter().rev().map(|b| (b.0, b.2)));
+                chart
+                    .draw_series(std::iter::once(Polygon::new(
+                        poly,
+                        colour.mix(0.2).filled(),
+                    )))
+                    .map_err(|e| err(&e))?;
+            }
+            let pts: Vec<(Real, Real)> = c
+                .points
+                .iter()
+                .copied()
+                .filter(|p| p.0.is_finite() && p.1.is_finite())
+                .collect();
+            let drawn = if c.markers {
+                chart
+                    .draw_series(pts.iter().map(|p| Circle::new(*p, 4, colour.filled())))
+                    .map_err(|e| err(&e))?
+            } else {
+                chart
+                    .draw_series(LineSeries::new(pts, colour.stroke_width(2)))
+                    .map_err(|e| err(&e))?
+            };
+            if !c.label.is_empty() {
+                drawn.label(c.label.as_str()).legend(move |(x, y)| {
+                    PathElement::new(vec![(x, y), (x + 16, y)], colour.stroke_width(2))
+                });
+            }
+        }
+        if panel.curves.iter().any(|c| !c.label.is_empty()) {
+            chart
+                .configure_series_labels()
+                .background_style(WHITE.mix(0.8))
+                .border_style(BLACK)
+                .label_font(("sans-serif", 13))
+                .draw()
+                .map_err(|e| err(&e))?;
+        }
+    }
+    root.present().map_err(|e| err(&e))
+}
+
+/// Quartiles (q1, median, q3) of a sample; None when empty.
+pub fn quartiles(mut v: Vec<Real>) -> Option<(Real, Real, Real)> {
+    v.retain(|x| x.is_finite());
+    if v.is_empty() {
+        return None;
+    }
+    v.sort_by(|a, b| a.total_cmp(b));
+    let q = |p: Real| {
+        let x = p * (v.len() - 1) as Real;
+        let (i, f) = (x.floor() as usize, x - x.floor());
+        if i + 1 < v.len() {
+            v[i] * (1.0 - f) + v[i + 1] * f
+        } else {
+            v[i]
+        }
+    };
+    Some((q(0.25), q(0.5), q(0.75)))
+}
+
+/// Plug statistics along the tube (seed 000 figs. 10–12): plug rate, minimum porosity,
+/// velocity (tracked) and length against height, medians with quartile bands, in bins of
+/// `bin` m.
+pub fn plug_statistics(
+    path: &Path,
+    plugs: &[PlugObservation],
+    tube_length: Real,
+    span: Real,
+    bin: Real,
+) -> Result<(), OutputError> {
+    let nbins = (tube_length / bin).ceil().max(1.0) as usize;
+    let mut panels_out = Vec::new();
+    // Rate: distinct tracks whose centre visited each bin, per second.
+    let mut rate = Vec::new();
+    for b in 0..nbins {
+        let (lo, hi) = (b as Real * bin, (b + 1) as Real * bin);
+        let tracks: std::collections::BTreeSet<u64> = plugs
+            .iter()
+            .filter(|p| p.centre >= lo && p.centre < hi)
+            .map(|p| p.track)
+            .collect();
+        rate.push((0.5 * (lo + hi), tracks.len() as Real / span.max(1e-12)));
+    }
+    panels_out.push(Panel {
+        title: "plug rate".into(),
+        x_label: "height z (m)".into(),
+        y_label: "plugs per second".into(),
+        curves: vec![Curve::line("", rate)],
+    });
+    type Pick = fn(&PlugObservation) -> Option<Real>;
+    let stats: [(&str, &str, Pick); 3] = [
+        ("minimum porosity", "porosity", |p| Some(p.min_porosity)),
+        ("plug velocity (tracked)", "m/s", |p| p.velocity),
+        ("plug length", "m", |p| Some(p.length)),
+    ];
+    for (title, unit, pick) in stats {
+        let mut med = Vec::new();
+        let mut band = Vec::new();
+        for b in 0..nbins {
+            let (lo, hi) = (b as Real * bin, (b + 1) as Real * bin);
+            let v: Vec<Real> = plugs
+                .iter()
+                .filter(|p| p.centre >= lo && p.centre < hi)
+                .filter_map(pick)
+                .collect();
+            if let Some((q1, q2, q3)) = quartiles(v) {
+                let z = 0.5 * (lo + hi);
+                med.push((z, q2));
+                band.push((z, q1, q3));
+            }
+        }
+        panels_out.push(Panel {
+            title: title.into(),
+            x_label: "height z (m)".into(),
+            y_label: unit.into(),
+            curves: vec![Curve {
+                label: "median, quartiles".into(),
+                points: med,
+                markers: false,
+                band,
+            }],
+        });
+    }
+    panels(path, &panels_out, 1600, 420)
+}

@@ -1,0 +1,288 @@
+//! `run.h5`: the run's time series in HDF5, appended and flushed sample by sample so that a
+//! run killed at any moment leaves a readable file. Layout (units in each dataset's `unit`
+//! attribute; documented in README.md):
+//!
+//! ```text
+//! /                      attrs: scene (TOML text), plugflow_version, engine, engine_version
+//! /time                  (t)       s      sample times
+//! /pressure_drop         (t)       Pa/m   −(P_out − P_in)/L           [gas scenes]
+//! /particles_in_tube     (t)       1
+//! /fields/z_slices       (s)       m      slice centres along the tube axis
+//! /fields/porosity       (t, s)    1      exact sphere–slab porosity per slice
+//! /fields/granular_velocity (t, s) m/s    volume-weighted axial grain velocity per slice
+//! /fields/z_gas          (g)       m      gas node positions along the axis [gas scenes]
+//! /fields/gas_porosity   (t, g)    1      deposited porosity, cross-section mean
+//! /fields/pressure       (t, g)    Pa     P − P0, cross-section mean
+//! /plugs/{time,track,centre,length,min_porosity,max_granular_velocity,grains,velocity}
+//!                        (p)              one row per plug per frame (velocity NaN until
+//!                                         the plug has been seen twice)
+//! /particles/NNNNNN      attrs time, step; id (n), position (n,3), velocity (n,3),
+//!                        angular_velocity (n,3), radius (n)   [only when the scene asks]
+//! ```
+
+use std::path::Path;
+
+use hdf5::types::VarLenUnicode;
+use hdf5::{Dataset, File, Group};
+use ndarray::{s, ArrayView1, ArrayView2};
+use plugflow_coupling::ParticleView;
+
+use super::{OutputError, RunOutput, Sample};
+use crate::Real;
+
+/// Metadata written as root attributes.
+#[derive(Debug, Clone)]
+pub struct RunMeta<'a> {
+    /// The scene file's text.
+    pub scene_text: &'a str,
+    /// Engine name and version.
+    pub engine: &'a str,
+    /// Engine version string.
+    pub engine_version: &'a str,
+    /// Slice centres along the axis, m (None without a tube).
+    pub z_slices: Option<Vec<Real>>,
+    /// Gas node positions along the axis, m (None without gas).
+    pub z_gas: Option<Vec<Real>>,
+    /// Whether particle snapshots go into this file.
+    pub snapshots: bool,
+}
+
+/// Streams a run into `run.h5`.
+pub struct Hdf5Output {
+    path: String,
+    file: File,
+    rows: usize,
+    time: Dataset,
+    pressure_drop: Option<Dataset>,
+    in_tube: Dataset,
+    slice_porosity: Option<Dataset>,
+    slice_velocity: Option<Dataset>,
+    gas_porosity: Option<Dataset>,
+    gas_pressure: Option<Dataset>,
+    plugs: Option<PlugColumns>,
+    particles: Option<Group>,
+    snapshots: usize,
+}
+
+struct PlugColumns {
+    rows: usize,
+    columns: Vec<Dataset>,
+}
+
+const PLUG_COLUMNS: [(&str, &str); 8] = [
+    ("time", "s"),
+    ("track", "1"),
+    ("centre", "m"),
+    ("length", "m"),
+    ("min_porosity", "1"),
+    ("max_granular_velocity", "m/s"),
+    ("grains", "1"),
+    ("velocity", "m/s"),
+];
+
+impl Hdf5Output {
+    /// Create (truncate) `path` and lay out the datasets the run will fill.
+    pub fn create(path: &Path, meta: &RunMeta) -> Result<Self, OutputError> {
+        let name = path.display().to_string();
+        let err = |e: hdf5::Error| OutputError::new(&name, e);
+        let file = File::create(path).map_err(err)?;
+        text_attr(&file, "scene", meta.scene_text).map_err(err)?;
+        text_attr(&file, "plugflow_version", env!("CARGO_PKG_VERSION")).map_err(err)?;
+        text_attr(&file, "engine", meta.engine).map_err(err)?;
+        text_attr(&file, "engine_version", meta.engine_version).map_err(err)?;
+        let root: &Group = &file;
+        let time = series(root, "time", "s").map_err(err)?;
+        let in_tube = series(root, "particles_in_tube", "1").map_err(err)?;
+        let pressure_drop = match meta.z_gas {
+            Some(_) => Some(series(root, "pressure_drop", "Pa/m").map_err(err)?),
+            None => None,
+        };
+        let fields = file.create_group("fields").map_err(err)?;
+        let (mut slice_porosity, mut slice_velocity, mut plugs) = (None, None, None);
+        if let Some(z) = &meta.z_slices {
+            fixed(&fields, "z_slices", z, "m").map_err(err)?;
+            slice_porosity = Some(field(&fields, "porosity", z.len(), "1").map_err(err)?);
+            slice_velocity =
+                Some(field(&fields, "granular_velocity", z.len(), "m/s").map_err(err)?);
+            let g = file.create_group("plugs").map_err(err)?;
+            let columns = PLUG_COLUMNS
+                .iter()
+                .map(|(n, u)| series(&g, n, u))
+                .collect::<Result<Vec<_>, _>>()
+                .map_err(err)?;
+            plugs = Some(PlugColumns { rows: 0, columns });
+        }
+        let (mut gas_porosity, mut gas_pressure) = (None, None);
+        if let Some(z) = &meta.z_gas {
+            fixed(&fields, "z_gas", z, "m").map_err(err)?;
+            gas_porosity = Some(field(&fields, "gas_porosity", z.len(), "1").map_err(err)?);
+            gas_pressure = Some(field(&fields, "pressure", z.len(), "Pa").map_err(err)?);
+        }
+        let particles = if meta.snapshots {
+            Some(file.create_group("particles").map_err(err)?)
+        } else {
+            None
+        };
+        file.flush().map_err(err)?;
+        Ok(Self {
+            path: name,
+            file,
+            rows: 0,
+            time,
+            pressure_drop,
+            in_tube,
+            slice_porosity,
+            slice_velocity,
+            gas_porosity,
+            gas_pressure,
+            plugs,
+            particles,
+            snapshots: 0,
+        })
+    }
+
+    fn err(&self, e: hdf5::Error) -> OutputError {
+        OutputError::new(&self.path, e)
+    }
+
+    fn append_sample(&mut self, s: &Sample) -> hdf5::Result<()> {
+        let n = self.rows;
+        append1(&self.time, n, s.time)?;
+        append1(&self.in_tube, n, s.particles_in_tube as Real)?;
+        if let Some(d) = &self.pressure_drop {
+            append1(d, n, s.pressure_drop.unwrap_or(Real::NAN))?;
+        }
+        if let Some(f) = s.slices {
+            if let Some(d) = &self.slice_porosity {
+                append2(d, n, &f.porosity)?;
+            }
+            if let Some(d) = &self.slice_velocity {
+                append2(d, n, &f.velocity)?;
+            }
+        }
+        if let (Some(d), Some(v)) = (&self.gas_porosity, s.gas_porosity) {
+            append2(d, n, v)?;
+        }
+        if let (Some(d), Some(v)) = (&self.gas_pressure, s.gas_pressure) {
+            append2(d, n, v)?;
+        }
+        if let Some(p) = self.plugs.as_mut() {
+            for o in s.new_plugs {
+                let row = [
+                    o.time,
+                    o.track as Real,
+                    o.centre,
+                    o.length,
+                    o.min_porosity,
+                    o.max_velocity,
+                    o.grains,
+                    o.velocity.unwrap_or(Real::NAN),
+                ];
+                for (c, v) in p.columns.iter().zip(row) {
+                    append1(c, p.rows, v)?;
+                }
+                p.rows += 1;
+            }
+        }
+        self.rows += 1;
+        self.file.flush()
+    }
+
+    fn write_snapshot(&mut self, time: Real, step: u64, p: &ParticleView) -> hdf5::Result<()> {
+        let Some(g) = &self.particles else {
+            return Ok(());
+        };
+        let snap = g.create_group(&format!("{:06}", self.snapshots))?;
+        snap.new_attr::<Real>()
+            .create("time")?
+            .write_scalar(&time)?;
+        snap.new_attr::<u64>().create("step")?.write_scalar(&step)?;
+        snap.new_dataset_builder()
+            .with_data(ArrayView1::from(p.id))
+            .create("id")?;
+        snap.new_dataset_builder()
+            .with_data(ArrayView1::from(p.radius))
+            .create("radius")?;
+        for (name, v) in [
+            ("position", p.position),
+            ("velocity", p.velocity),
+            ("angular_velocity", p.angular_velocity),
+        ] {
+            let flat: Vec<Real> = v.iter().flatten().copied().collect();
+            let a = ArrayView2::from_shape((v.len(), 3), &flat).expect("n × 3 matches");
+            snap.new_dataset_builder().with_data(a).create(name)?;
+        }
+        self.snapshots += 1;
+        self.file.flush()
+    }
+}
+
+impl RunOutput for Hdf5Output {
+    fn sample(&mut self, sample: &Sample) -> Result<(), OutputError> {
+        self.append_sample(sample).map_err(|e| self.err(e))
+    }
+
+    fn snapshot(
+        &mut self,
+        time: Real,
+        step: u64,
+        particles: &ParticleView,
+    ) -> Result<(), OutputError> {
+        self.write_snapshot(time, step, particles)
+            .map_err(|e| self.err(e))
+    }
+}
+
+fn text_attr(g: &Group, name: &str, text: &str) -> hdf5::Result<()> {
+    // Scene text never holds NUL (TOML forbids it), which is all VarLenUnicode refuses.
+    let v: VarLenUnicode = text
+        .replace('\0', " ")
+        .parse()
+        .expect("NUL-free text converts");
+    g.new_attr::<VarLenUnicode>().create(name)?.write_scalar(&v)
+}
+
+fn unit_attr(d: &Dataset, unit: &str) -> hdf5::Result<()> {
+    let v: VarLenUnicode = unit.parse().expect("unit strings are NUL-free");
+    d.new_attr::<VarLenUnicode>()
+        .create("unit")?
+        .write_scalar(&v)
+}
+
+/// A growing 1-D series.
+fn series(g: &Group, name: &str, unit: &str) -> hdf5::Result<Dataset> {
+    let d = g.new_dataset::<Real>().chunk(256).shape(0..).create(name)?;
+    unit_attr(&d, unit)?;
+    Ok(d)
+}
+
+/// A growing (time × width) field.
+fn field(g: &Group, name: &str, width: usize, unit: &str) -> hdf5::Result<Dataset> {
+    let d = g
+        .new_dataset::<Real>()
+        .chunk((16, width.max(1)))
+        .shape((0.., width))
+        .create(name)?;
+    unit_attr(&d, unit)?;
+    Ok(d)
+}
+
+fn fixed(g: &Group, name: &str, v: &[Real], unit: &str) -> hdf5::Result<()> {
+    let d = g
+        .new_dataset_builder()
+        .with_data(ArrayView1::from(v))
+        .create(name)?;
+    unit_attr(&d, unit)
+}
+
+fn append1(d: &Dataset, n: usize, v: Real) -> hdf5::Result<()> {
+    d.resize(n + 1)?;
+    d.write_slice(&[v], s![n..n + 1])
+}
+
+fn append2(d: &Dataset, n: usize, row: &[Real]) -> hdf5::Result<()> {
+    let w = row.len();
+    d.resize((n + 1, w))?;
+    let a = ArrayView2::from_shape((1, w), row).expect("1 × w matches");
+    d.write_slice(a, s![n..n + 1, ..])
+}

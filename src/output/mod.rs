@@ -1,0 +1,67 @@
+//! What a run writes while it goes. Each format is one file here behind [`RunOutput`]:
+//! [`hdf5::Hdf5Output`] (`run.h5`: field time series, pressure-drop trace, plug table,
+//! snapshots), [`vtk::VtkOutput`] (ParaView particle files). Figures and `summary.json`
+//! are written once at the end (`figures.rs`, `run.rs`).
+//!
+//! Every sample is handed to every output as soon as it is taken, and each output makes it
+//! durable before the run goes on, so a run killed at any moment leaves readable files.
+
+pub mod figures;
+pub mod hdf5;
+pub mod vtk;
+
+use plugflow_coupling::ParticleView;
+
+use crate::analysis::plugs::{PlugObservation, SliceFrame};
+use crate::Real;
+
+/// A failure to write an output file.
+#[derive(Debug, thiserror::Error)]
+#[error("cannot write `{path}`: {reason}")]
+pub struct OutputError {
+    /// The file.
+    pub path: String,
+    /// What went wrong.
+    pub reason: String,
+}
+
+impl OutputError {
+    pub(crate) fn new(path: impl std::fmt::Display, reason: impl std::fmt::Display) -> Self {
+        Self {
+            path: path.to_string(),
+            reason: reason.to_string(),
+        }
+    }
+}
+
+/// One sample of the tube, every `output.sample_interval`.
+#[derive(Debug, Clone, Copy)]
+pub struct Sample<'a> {
+    /// Simulated time, s.
+    pub time: Real,
+    /// Grains inside the tube.
+    pub particles_in_tube: usize,
+    /// Pressure drop per length, Pa/m (None without gas).
+    pub pressure_drop: Option<Real>,
+    /// Slices of the tube (None without a tube).
+    pub slices: Option<&'a SliceFrame>,
+    /// Gas-grid porosity along the axis (cross-section means; None without gas).
+    pub gas_porosity: Option<&'a [Real]>,
+    /// Gas pressure P − P0 along the axis, Pa (cross-section means; None without gas).
+    pub gas_pressure: Option<&'a [Real]>,
+    /// Plugs first observed in this sample's frame.
+    pub new_plugs: &'a [PlugObservation],
+}
+
+/// An output written while the run goes.
+pub trait RunOutput {
+    /// Record one sample; durable on return.
+    fn sample(&mut self, sample: &Sample) -> Result<(), OutputError>;
+    /// Record one particle snapshot; durable on return.
+    fn snapshot(
+        &mut self,
+        time: Real,
+        step: u64,
+        particles: &ParticleView,
+    ) -> Result<(), OutputError>;
+}

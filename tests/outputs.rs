@@ -1,0 +1,225 @@
+//! Run outputs read back: run.h5 (from Rust and, where h5py is installed, from Python), VTK
+//! snapshots parsed as ParaView's legacy reader would, and a run killed mid-way leaving a
+//! readable run.h5.
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+use plugflow::run::{run, RunOptions};
+use plugflow::scene::Scene;
+
+fn case(name: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("cases")
+        .join(name)
+}
+
+fn tmp(tag: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("plugflow-out-{tag}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    d
+}
+
+const SNAPSHOTS: &str = r#"output.snapshots={interval="0.1 s", formats=["hdf5","vtk"]}"#;
+
+/// The coupled vertical case for 0.3 s with snapshots every 0.1 s.
+fn short_coupled_run(out: &Path) -> serde_json::Value {
+    let scene = Scene::load(
+        &case("vertical_plug.toml"),
+        &[
+            SNAPSHOTS.to_string(),
+            "output.settling_time=0.1 s".to_string(),
+        ],
+    )
+    .unwrap();
+    let opts = RunOptions {
+        out_dir: Some(out.to_path_buf()),
+        duration: Some(0.3),
+        progress: false,
+    };
+    run(&scene, &opts).unwrap().summary
+}
+
+/// Points and ids of a legacy VTK polydata file, read the way the format defines them.
+fn read_vtk(path: &Path) -> (Vec<[f64; 3]>, Vec<u64>, f64) {
+    let text = std::fs::read_to_string(path).unwrap();
+    let mut lines = text.lines();
+    assert_eq!(lines.next(), Some("# vtk DataFile Version 3.0"));
+    lines.next();
+    assert_eq!(lines.next(), Some("ASCII"));
+    assert_eq!(lines.next(), Some("DATASET POLYDATA"));
+    let (mut points, mut ids, mut time) = (Vec::new(), Vec::new(), f64::NAN);
+    while let Some(l) = lines.next() {
+        let w: Vec<&str> = l.split_whitespace().collect();
+        match w.first().copied() {
+            Some("TIME") => time = lines.next().unwrap().trim().parse().unwrap(),
+            Some("POINTS") => {
+                let n: usize = w[1].parse().unwrap();
+                for _ in 0..n {
+                    let v: Vec<f64> = lines
+                        .next()
+                        .unwrap()
+                        .split_whitespace()
+                        .map(|x| x.parse().unwrap())
+                        .collect();
+                    points.push([v[0], v[1], v[2]]);
+                }
+            }
+            Some("SCALARS") if w[1] == "id" => {
+                assert_eq!(lines.next(), Some("LOOKUP_TABLE default"));
+                for _ in 0..points.len() {
+                    ids.push(lines.next().unwrap().trim().parse().unwrap());
+                }
+            }
+            _ => {}
+        }
+    }
+    (points, ids, time)
+}
+
+#[test]
+fn run_h5_holds_the_run_and_vtk_matches_it() {
+    let out = tmp("h5");
+    let summary = short_coupled_run(&out);
+    let f = hdf5::File::open(out.join("run.h5")).unwrap();
+    let scene_attr: hdf5::types::VarLenUnicode = f.attr("scene").unwrap().read_scalar().unwrap();
+    assert!(scene_attr.as_str().contains("vertical_plug"));
+    let time: Vec<f64> = f.dataset("time").unwrap().read_raw().unwrap();
+    // 0.3 s sampled every 0.01 s.
+    assert_eq!(time.len(), 30, "{time:?}");
+    assert!(time.windows(2).all(|w| w[1] > w[0]));
+    let por = f.dataset("fields/porosity").unwrap();
+    let z = f
+        .dataset("fields/z_slices")
+        .unwrap()
+        .read_raw::<f64>()
+        .unwrap();
+    assert_eq!(por.shape(), vec![30, z.len()]);
+    let por: Vec<f64> = por.read_raw().unwrap();
+    assert!(por.iter().all(|p| (0.0..=1.0).contains(p)));
+    let p = f.dataset("fields/pressure").unwrap();
+    let zg = f
+        .dataset("fields/z_gas")
+        .unwrap()
+        .read_raw::<f64>()
+        .unwrap();
+    assert_eq!(p.shape(), vec![30, zg.len()]);
+    // The summary's mean pressure drop is the mean of the trace after the settling time:
+    // same numbers, summed in the same order, so equal to rounding.
+    let dp: Vec<f64> = f.dataset("pressure_drop").unwrap().read_raw().unwrap();
+    let kept: Vec<f64> = time
+        .iter()
+        .zip(&dp)
+        .filter(|(t, _)| **t >= 0.1 - 1e-9)
+        .map(|(_, d)| *d)
+        .collect();
+    let mean = kept.iter().sum::<f64>() / kept.len() as f64 / 100.0;
+    let reported = summary["pressure_drop_hpa_per_m"].as_f64().unwrap();
+    assert!(
+        (mean - reported).abs() <= 1e-9 * reported.abs().max(1e-9),
+        "trace mean {mean} vs summary {reported}"
+    );
+    // Snapshots at 0, 0.1, 0.2 s in both formats; the last one agrees bit for bit.
+    let snaps = f.group("particles").unwrap().member_names().unwrap();
+    assert_eq!(snaps.len(), 3, "{snaps:?}");
+    let last = f.group("particles/000002").unwrap();
+    let t: f64 = last.attr("time").unwrap().read_scalar().unwrap();
+    let pos = last.dataset("position").unwrap().read_2d::<f64>().unwrap();
+    let ids: Vec<u64> = last.dataset("id").unwrap().read_raw().unwrap();
+    let (vpoints, vids, vtime) = read_vtk(&out.join("particles_000002.vtk"));
+    assert_eq!(vtime, t);
+    assert_eq!(vids, ids);
+    assert_eq!(vpoints.len(), pos.nrows());
+    assert!(!ids.is_empty());
+    for (i, p) in vpoints.iter().enumerate() {
+        for d in 0..3 {
+            assert_eq!(p[d], pos[[i, d]], "grain {i} axis {d}");
+        }
+    }
+    assert!(out.join("plug_statistics.png").exists() || summary["plugs_observed_mid_tube"] == 0);
+    assert!(out.join("pressure_drop.png").exists());
+
+    // From Python, as users read it. test-all.sh installs h5py and sets
+    // PLUGFLOW_REQUIRE_H5PY=1; elsewhere the check runs only where h5py imports.
+    let has_h5py = Command::new("python3")
+        .args(["-c", "import h5py"])
+        .status()
+        .is_ok_and(|s| s.success());
+    if !has_h5py {
+        assert!(
+            std::env::var("PLUGFLOW_REQUIRE_H5PY").is_err(),
+            "h5py is required here but does not import"
+        );
+        eprintln!("h5py not installed: Python read-back skipped");
+        return;
+    }
+    let script = format!(
+        "import h5py\nf = h5py.File(r'{}', 'r')\nprint(f['time'].shape[0], f['fields/porosity'].shape[1], f['particles/000002/position'].shape[0], f['fields/pressure'].attrs['unit'])",
+        out.join("run.h5").display()
+    );
+    let o = Command::new("python3")
+        .args(["-c", &script])
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let text = String::from_utf8_lossy(&o.stdout);
+    assert_eq!(
+        text.trim(),
+        format!("30 {} {} Pa", z.len(), ids.len()),
+        "h5py read {text}"
+    );
+    let _ = std::fs::remove_dir_all(&out);
+}
+
+#[test]
+fn killed_run_leaves_a_readable_run_h5() {
+    let out = tmp("kill");
+    /// Kills the run also when an assertion below fails.
+    struct Killer(std::process::Child);
+    impl Drop for Killer {
+        fn drop(&mut self) {
+            let _ = self.0.kill();
+            let _ = self.0.wait();
+        }
+    }
+    let child = Killer(
+        Command::new(env!("CARGO_BIN_EXE_plugflow"))
+            .args([
+                "run",
+                case("vertical_plug.toml").to_str().unwrap(),
+                "--out",
+                out.to_str().unwrap(),
+                "--quiet",
+            ])
+            .spawn()
+            .unwrap(),
+    );
+    // HDF5 locks a file open for writing, so watch its size instead of opening it: once it
+    // grows past its empty layout the samples are flowing; let it write for 2 s (dozens of
+    // samples), then kill the run without warning.
+    let h5 = out.join("run.h5");
+    let start = std::time::Instant::now();
+    let mut first_size = None;
+    loop {
+        std::thread::sleep(std::time::Duration::from_millis(100));
+        if let Ok(m) = std::fs::metadata(&h5) {
+            let base = *first_size.get_or_insert(m.len());
+            if m.len() > base {
+                break;
+            }
+        }
+        assert!(
+            start.elapsed().as_secs() < 120,
+            "run.h5 did not grow in 2 minutes"
+        );
+    }
+    std::thread::sleep(std::time::Duration::from_secs(2));
+    drop(child);
+    let f = hdf5::File::open(&h5).unwrap();
+    let time: Vec<f64> = f.dataset("time").unwrap().read_raw().unwrap();
+    let por = f.dataset("fields/gas_porosity").unwrap();
+    assert!(time.len() >= 10, "only {} samples", time.len());
+    assert!(por.shape()[0] >= time.len() - 1);
+    assert!(time.windows(2).all(|w| w[1] > w[0]));
+    let _ = std::fs::remove_dir_all(&out);
+}
