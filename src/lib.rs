@@ -16,5 +16,6 @@ pub mod png;
 pub mod rng;
 pub mod run;
 pub mod scene;
+pub mod sweep;
 
 pub use plugflow_coupling::{Real, Vec3};

@@ -1,4 +1,4 @@
-//! The `plugflow` command line: `run`, `validate`.
+//! The `plugflow` command line: `run`, `sweep`, `validate`.
 
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -7,6 +7,7 @@ use clap::{Parser, Subcommand};
 use plugflow::dem::DemConfig;
 use plugflow::run::{run, RunError, RunOptions};
 use plugflow::scene::Scene;
+use plugflow::sweep;
 
 #[derive(Parser)]
 #[command(
@@ -38,6 +39,31 @@ enum Command {
         #[arg(long)]
         quiet: bool,
     },
+    /// Run every combination of the --vary lists as parallel processes; write sweep.csv and
+    /// characteristic.png into the output folder (default results/<scene name>_sweep/).
+    Sweep {
+        /// Scene file (TOML).
+        scene: PathBuf,
+        /// A field and its values: --vary gas.superficial_velocity=0.5,0.75,1,2,4 (repeatable;
+        /// every combination runs).
+        #[arg(long = "vary", value_name = "PATH=V1,V2,...", required = true)]
+        vary: Vec<String>,
+        /// Output folder.
+        #[arg(long)]
+        out: Option<PathBuf>,
+        /// Simulated time per variant, s.
+        #[arg(long)]
+        duration: Option<f64>,
+        /// Variants run at once (default: one per core).
+        #[arg(long)]
+        jobs: Option<usize>,
+        /// DEM threads per variant (default 1, so that the jobs fill the cores).
+        #[arg(long, default_value_t = 1)]
+        threads: usize,
+        /// Override a scene field in every variant (repeatable).
+        #[arg(long = "set", value_name = "PATH=VALUE")]
+        set: Vec<String>,
+    },
     /// Check a scene without running it; exit code 2 and the field at fault when wrong.
     Validate {
         /// Scene file (TOML).
@@ -51,6 +77,82 @@ enum Command {
 fn main() -> ExitCode {
     let cli = Cli::parse();
     match cli.command {
+        Command::Sweep {
+            scene,
+            vary,
+            out,
+            duration,
+            jobs,
+            threads,
+            set,
+        } => {
+            let varies: Result<Vec<_>, _> = vary.iter().map(|v| sweep::parse_vary(v)).collect();
+            let varies = match varies {
+                Ok(v) => v,
+                Err(e) => {
+                    eprintln!("error: {e}");
+                    return ExitCode::from(2);
+                }
+            };
+            if let Some(d) = duration {
+                if !(d.is_finite() && d > 0.0) {
+                    eprintln!("error: --duration must be a positive number of seconds");
+                    return ExitCode::from(2);
+                }
+            }
+            let base = match Scene::load(&scene, &set) {
+                Ok(s) => s,
+                Err(e) => {
+                    eprintln!("error: {e}");
+                    return ExitCode::from(2);
+                }
+            };
+            let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
+            let opts = sweep::SweepOptions {
+                out_dir: out.unwrap_or_else(|| {
+                    PathBuf::from("results").join(format!("{}_sweep", base.file.name))
+                }),
+                jobs: jobs.unwrap_or(cores).max(1),
+                duration,
+                set,
+                threads: threads.max(1),
+            };
+            let exe = match std::env::current_exe() {
+                Ok(e) => e,
+                Err(e) => {
+                    eprintln!("error: cannot find the plugflow executable: {e}");
+                    return ExitCode::FAILURE;
+                }
+            };
+            match sweep::sweep(&exe, &scene, &varies, &opts) {
+                Ok(rows) => {
+                    let failed = rows
+                        .iter()
+                        .filter(|r| r["status"].as_str() != Some("completed"))
+                        .count();
+                    println!(
+                        "sweep: {} variants ({} failed); {}",
+                        rows.len(),
+                        failed,
+                        opts.out_dir.join("sweep.csv").display()
+                    );
+                    if failed == 0 {
+                        ExitCode::SUCCESS
+                    } else {
+                        ExitCode::FAILURE
+                    }
+                }
+                Err(e @ sweep::SweepError::Vary { .. })
+                | Err(e @ sweep::SweepError::Scene { .. }) => {
+                    eprintln!("error: {e}");
+                    ExitCode::from(2)
+                }
+                Err(e) => {
+                    eprintln!("error: {e}");
+                    ExitCode::FAILURE
+                }
+            }
+        }
         Command::Validate { scene, set } => {
             // Build the engine too: initial placement can fail on a valid-looking scene.
             let checked = Scene::load(&scene, &set).and_then(|s| {

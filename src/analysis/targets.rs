@@ -91,6 +91,78 @@ pub const TARGETS: &[Target] = &[
         paper: 0.49,
         band: (0.44, 0.54),
     },
+    // Experiment series A (TARGETS.md, seed 000 Table 1): the band is the measured
+    // range (pressure drop ± its error; plug velocity and length as tabulated), the
+    // "paper" value its middle.
+    Target {
+        id: "A.dp",
+        key: "pressure_drop_hpa_per_m",
+        what: "series A: pressure drop, hPa/m",
+        paper: 42.0,
+        band: (40.0, 44.0),
+    },
+    Target {
+        id: "A.velocity",
+        key: "plug_velocity_m_s",
+        what: "series A: plug velocity, m/s",
+        paper: 0.13,
+        band: (0.09, 0.17),
+    },
+    Target {
+        id: "A.length",
+        key: "plug_length_m",
+        what: "series A: plug length, m",
+        paper: 0.023,
+        band: (0.006, 0.04),
+    },
+    // Experiment series B (TARGETS.md, seed 000 Table 1): the band is the measured
+    // range (pressure drop ± its error; plug velocity and length as tabulated), the
+    // "paper" value its middle.
+    Target {
+        id: "B.dp",
+        key: "pressure_drop_hpa_per_m",
+        what: "series B: pressure drop, hPa/m",
+        paper: 45.0,
+        band: (43.0, 47.0),
+    },
+    Target {
+        id: "B.velocity",
+        key: "plug_velocity_m_s",
+        what: "series B: plug velocity, m/s",
+        paper: 0.155,
+        band: (0.12, 0.19),
+    },
+    Target {
+        id: "B.length",
+        key: "plug_length_m",
+        what: "series B: plug length, m",
+        paper: 0.053,
+        band: (0.017, 0.09),
+    },
+    // Experiment series C (TARGETS.md, seed 000 Table 1): the band is the measured
+    // range (pressure drop ± its error; plug velocity and length as tabulated), the
+    // "paper" value its middle.
+    Target {
+        id: "C.dp",
+        key: "pressure_drop_hpa_per_m",
+        what: "series C: pressure drop, hPa/m",
+        paper: 44.5,
+        band: (42.5, 46.5),
+    },
+    Target {
+        id: "C.velocity",
+        key: "plug_velocity_m_s",
+        what: "series C: plug velocity, m/s",
+        paper: 0.255,
+        band: (0.18, 0.33),
+    },
+    Target {
+        id: "C.length",
+        key: "plug_length_m",
+        what: "series C: plug length, m",
+        paper: 0.0225,
+        band: (0.005, 0.04),
+    },
 ];
 
 /// The target with this id.

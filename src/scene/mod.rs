@@ -63,6 +63,22 @@ impl Scene {
             toml::from_str(text).map_err(|e| SceneError::Syntax(e.to_string()))?;
         for o in overrides {
             apply_override(&mut table, o)?;
+            // An override of one way of giving a quantity replaces the scene's other way
+            // (a sweep over `gas.superficial_velocity` of a scene that gives `gas.flow`).
+            let path = o.split_once('=').map_or("", |(p, _)| p.trim());
+            for (a, b) in ALTERNATIVES {
+                let other = if path == a {
+                    b
+                } else if path == b {
+                    a
+                } else {
+                    continue;
+                };
+                let (section, key) = other.split_once('.').expect("dotted");
+                if let Some(toml::Value::Table(t)) = table.get_mut(section) {
+                    t.remove(key);
+                }
+            }
         }
         let value = toml::Value::Table(table.clone());
         let file: SceneFile = serde_path_to_error::deserialize(value).map_err(|e| {
@@ -90,6 +106,10 @@ impl Scene {
         Path::new("results").join(&self.file.name)
     }
 }
+
+/// Fields that say the same thing two ways; a scene gives one, an override of either
+/// replaces it.
+const ALTERNATIVES: [(&str, &str); 1] = [("gas.superficial_velocity", "gas.flow")];
 
 /// Apply one `a.b.c=value` override; the value is read as TOML (number, string, bool,
 /// array) and, failing that, as a bare string (so `dem.dt=5e-6 s` works unquoted).

@@ -1,0 +1,374 @@
+//! `plugflow sweep`: every combination of the `--vary` lists, run as separate `plugflow run`
+//! processes (as many at once as asked, default one per core), gathered into `sweep.csv`
+//! and drawn as characteristic curves (pressure drop and grains in the tube against the
+//! first varied field, one curve per value of the second) beside the papers' points.
+//!
+//! Each variant is an ordinary run in `<out>/<k>/` with its own summary.json and run.h5, so
+//! a sweep that stops part-way keeps every finished variant.
+
+use std::path::{Path, PathBuf};
+use std::process::{Child, Command, Stdio};
+
+use serde_json::Value;
+
+use crate::output::figures::{self, Curve, Panel};
+use crate::scene::{Scene, SceneError};
+use crate::Real;
+
+/// One `--vary path=v1,v2,…`.
+#[derive(Debug, Clone)]
+pub struct Vary {
+    /// Scene path, e.g. `gas.superficial_velocity`.
+    pub path: String,
+    /// Values as written (units allowed).
+    pub values: Vec<String>,
+}
+
+/// What can stop a sweep before it starts.
+#[derive(Debug, thiserror::Error)]
+pub enum SweepError {
+    /// A `--vary` is malformed.
+    #[error("--vary `{arg}`: {reason}")]
+    Vary { arg: String, reason: String },
+    /// A variant's scene is wrong (checked for every variant before any runs).
+    #[error("variant {variant}: {source}")]
+    Scene { variant: String, source: SceneError },
+    /// Files.
+    #[error("sweep output `{path}`: {reason}")]
+    Io { path: String, reason: String },
+}
+
+/// Parse `path=v1,v2,…`.
+pub fn parse_vary(arg: &str) -> Result<Vary, SweepError> {
+    let bad = |reason: &str| SweepError::Vary {
+        arg: arg.to_string(),
+        reason: reason.to_string(),
+    };
+    let (path, list) = arg
+        .split_once('=')
+        .ok_or_else(|| bad("expected PATH=V1,V2,…"))?;
+    let values: Vec<String> = list
+        .split(',')
+        .map(|v| v.trim().to_string())
+        .filter(|v| !v.is_empty())
+        .collect();
+    if path.trim().is_empty() || values.is_empty() {
+        return Err(bad("expected PATH=V1,V2,… with at least one value"));
+    }
+    Ok(Vary {
+        path: path.trim().to_string(),
+        values,
+    })
+}
+
+/// Every combination, first `--vary` slowest: `[(path, value)]` per variant.
+pub fn combinations(varies: &[Vary]) -> Vec<Vec<(String, String)>> {
+    let mut out: Vec<Vec<(String, String)>> = vec![Vec::new()];
+    for v in varies {
+        out = out
+            .into_iter()
+            .flat_map(|prefix| {
+                v.values.iter().map(move |x| {
+                    let mut p = prefix.clone();
+                    p.push((v.path.clone(), x.clone()));
+                    p
+                })
+            })
+            .collect();
+    }
+    out
+}
+
+/// How to sweep.
+#[derive(Debug, Clone)]
+pub struct SweepOptions {
+    /// Output folder.
+    pub out_dir: PathBuf,
+    /// Processes at once.
+    pub jobs: usize,
+    /// Simulated time per variant (None: the scene's).
+    pub duration: Option<Real>,
+    /// Fixed overrides applied to every variant.
+    pub set: Vec<String>,
+    /// Threads per variant process (`dem.threads`); 1 by default so that `jobs` processes
+    /// fill the cores without oversubscribing them.
+    pub threads: usize,
+}
+
+/// The value of `--set` for one (path, value): quoted unless it parses as TOML already.
+fn set_arg(path: &str, value: &str) -> String {
+    let needs_quotes = value.parse::<f64>().is_err()
+        && !matches!(value, "true" | "false")
+        && !value.starts_with(['"', '[', '{']);
+    if needs_quotes {
+        format!("{path}=\"{value}\"")
+    } else {
+        format!("{path}={value}")
+    }
+}
+
+/// Run the sweep; returns the rows written to sweep.csv.
+pub fn sweep(
+    exe: &Path,
+    scene_path: &Path,
+    varies: &[Vary],
+    opts: &SweepOptions,
+) -> Result<Vec<Value>, SweepError> {
+    let io = |p: &Path, e: &dyn std::fmt::Display| SweepError::Io {
+        path: p.display().to_string(),
+        reason: e.to_string(),
+    };
+    let variants = combinations(varies);
+    // Check every variant before the first one starts.
+    let mut sets = Vec::new();
+    for v in &variants {
+        let mut set = opts.set.clone();
+        set.push(format!("dem.threads={}", opts.threads));
+        set.extend(v.iter().map(|(p, x)| set_arg(p, x)));
+        let label: Vec<String> = v.iter().map(|(p, x)| format!("{p}={x}")).collect();
+        let scene = Scene::load(scene_path, &set).map_err(|source| SweepError::Scene {
+            variant: label.join(" "),
+            source,
+        })?;
+        sets.push((set, label, scene));
+    }
+    std::fs::create_dir_all(&opts.out_dir).map_err(|e| io(&opts.out_dir, &e))?;
+    let mut running: Vec<(usize, Child)> = Vec::new();
+    let mut exit: Vec<Option<i32>> = vec![None; sets.len()];
+    let mut next = 0;
+    while next < sets.len() || !running.is_empty() {
+        while running.len() < opts.jobs.max(1) && next < sets.len() {
+            let dir = opts.out_dir.join(format!("{next:03}"));
+            let log = std::fs::File::create(opts.out_dir.join(format!("{next:03}.log")))
+                .map_err(|e| io(&opts.out_dir, &e))?;
+            let log2 = log.try_clone().map_err(|e| io(&opts.out_dir, &e))?;
+            let mut cmd = Command::new(exe);
+            cmd.arg("run")
+                .arg(scene_path)
+                .arg("--out")
+                .arg(&dir)
+                .arg("--quiet");
+            if let Some(d) = opts.duration {
+                cmd.arg("--duration").arg(d.to_string());
+            }
+            for s in &sets[next].0 {
+                cmd.arg("--set").arg(s);
+            }
+            eprintln!("sweep: start {next:03}: {}", sets[next].1.join(" "));
+            let child = cmd
+                .stdout(Stdio::from(log))
+                .stderr(Stdio::from(log2))
+                .spawn()
+                .map_err(|e| io(exe, &e))?;
+            running.push((next, child));
+            next += 1;
+        }
+        std::thread::sleep(std::time::Duration::from_millis(100));
+        let mut still = Vec::new();
+        for (k, mut c) in running {
+            match c.try_wait() {
+                Ok(Some(status)) => {
+                    exit[k] = Some(status.code().unwrap_or(-1));
+                    eprintln!(
+                        "sweep: done  {k:03}: {} (exit {})",
+                        sets[k].1.join(" "),
+                        exit[k].unwrap_or(-1)
+                    );
+                }
+                Ok(None) => still.push((k, c)),
+                Err(e) => return Err(io(exe, &e)),
+            }
+        }
+        running = still;
+    }
+    // Gather.
+    const COLUMNS: [&str; 9] = [
+        "pressure_drop_hpa_per_m",
+        "particles_in_tube_mean",
+        "mass_outflow_kg_per_h",
+        "plug_velocity_m_s",
+        "plug_length_m",
+        "plug_min_porosity",
+        "plug_rate_per_s",
+        "simulated_time_s",
+        "wall_time_s",
+    ];
+    let mut csv = String::new();
+    for v in varies {
+        csv.push_str(&v.path);
+        csv.push(',');
+    }
+    csv.push_str("variant,status,");
+    csv.push_str(&COLUMNS.join(","));
+    csv.push('\n');
+    let mut rows = Vec::new();
+    for (k, (_, _, _)) in sets.iter().enumerate() {
+        let dir = opts.out_dir.join(format!("{k:03}"));
+        let summary: Value = std::fs::read_to_string(dir.join("summary.json"))
+            .ok()
+            .and_then(|t| serde_json::from_str(&t).ok())
+            .unwrap_or(Value::Null);
+        for (_, x) in &variants[k] {
+            csv.push_str(&format!("\"{x}\","));
+        }
+        let status = summary["status"]
+            .as_str()
+            .map(|s| s.to_string())
+            .unwrap_or_else(|| format!("no summary (exit {:?})", exit[k]));
+        csv.push_str(&format!("{k:03},\"{}\"", status.replace('"', "'")));
+        for c in COLUMNS {
+            csv.push(',');
+            if let Some(x) = summary[c].as_f64() {
+                csv.push_str(&format!("{x}"));
+            }
+        }
+        csv.push('\n');
+        rows.push(summary);
+    }
+    let csv_path = opts.out_dir.join("sweep.csv");
+    std::fs::write(&csv_path, csv).map_err(|e| io(&csv_path, &e))?;
+    draw_curves(&opts.out_dir, scene_path, varies, &variants, &rows)
+        .map_err(|e| io(&opts.out_dir, &e))?;
+    Ok(rows)
+}
+
+/// The papers' characteristic points (superficial velocity m/s, hPa/m, grains in tube):
+/// seed 000 simulations (V1, V6, V7) and the experiment of Table 1 (air flows through the
+/// 7 mm tube: v_s = 4 V̇ / (π D²)); seed 002 (H1).
+fn paper_points(reproduces: &[String]) -> Vec<Curve> {
+    let vs = |lpm: Real| 4.0 * lpm / 60_000.0 / (std::f64::consts::PI * 0.007 * 0.007);
+    let has = |id: &str| reproduces.iter().any(|r| r == id);
+    let mut out = Vec::new();
+    if has("V1") {
+        out.push(Curve {
+            label: "seed 000 simulation".into(),
+            points: vec![(0.75, 62.0), (1.0, 39.0), (4.0, 13.0)],
+            markers: true,
+            band: Vec::new(),
+        });
+        out.push(Curve {
+            label: "experiment (Table 1)".into(),
+            points: vec![(vs(2.0), 42.0), (vs(2.2), 45.0), (vs(2.4), 44.5)],
+            markers: true,
+            band: Vec::new(),
+        });
+    }
+    if has("H1") {
+        out.push(Curve {
+            label: "seed 002 simulation".into(),
+            points: vec![(1.0, 10.0)],
+            markers: true,
+            band: Vec::new(),
+        });
+    }
+    out
+}
+
+fn leading_number(s: &str) -> Option<Real> {
+    let t = s.trim().trim_matches('"');
+    let end = t
+        .find(|c: char| !(c.is_ascii_digit() || matches!(c, '.' | '-' | '+' | 'e' | 'E')))
+        .unwrap_or(t.len());
+    t[..end].parse().ok()
+}
+
+fn draw_curves(
+    dir: &Path,
+    scene_path: &Path,
+    varies: &[Vary],
+    variants: &[Vec<(String, String)>],
+    rows: &[Value],
+) -> Result<(), crate::output::OutputError> {
+    let Some(first) = varies.first() else {
+        return Ok(());
+    };
+    let second = varies.get(1);
+    let groups: Vec<Option<&String>> = match second {
+        Some(s) => s.values.iter().map(Some).collect(),
+        None => vec![None],
+    };
+    let mut dp_curves = Vec::new();
+    let mut n_curves = Vec::new();
+    for g in groups {
+        let (mut dp, mut n) = (Vec::new(), Vec::new());
+        for (v, r) in variants.iter().zip(rows) {
+            if let (Some(gv), Some(s)) = (g, second) {
+                if !v.iter().any(|(p, x)| p == &s.path && x == gv) {
+                    continue;
+                }
+            }
+            let Some(x) = leading_number(&v[0].1) else {
+                continue;
+            };
+            if let Some(y) = r["pressure_drop_hpa_per_m"].as_f64() {
+                dp.push((x, y));
+            }
+            if let Some(y) = r["particles_in_tube_mean"].as_f64() {
+                n.push((x, y));
+            }
+        }
+        let label = match (g, second) {
+            (Some(gv), Some(s)) => format!("{} = {gv}", s.path),
+            _ => "plugflow".to_string(),
+        };
+        dp_curves.push(Curve::line(label.clone(), dp));
+        n_curves.push(Curve::line(label, n));
+    }
+    let reproduces = Scene::load(scene_path, &[])
+        .map(|s| s.file.output.reproduces.clone())
+        .unwrap_or_default();
+    if first.path.ends_with("superficial_velocity") {
+        dp_curves.extend(paper_points(&reproduces));
+    }
+    figures::panels(
+        &dir.join("characteristic.png"),
+        &[
+            Panel {
+                title: "pressure drop".into(),
+                x_label: first.path.clone(),
+                y_label: "hPa/m".into(),
+                curves: dp_curves,
+            },
+            Panel {
+                title: "grains in the tube".into(),
+                x_label: first.path.clone(),
+                y_label: "mean count".into(),
+                curves: n_curves,
+            },
+        ],
+        1300,
+        480,
+    )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn combinations_cover_the_product_first_slowest() {
+        let v = [
+            parse_vary("a=1,2").unwrap(),
+            parse_vary("b=x, y ,z").unwrap(),
+        ];
+        let c = combinations(&v);
+        assert_eq!(c.len(), 6);
+        assert_eq!(
+            c[0],
+            vec![("a".into(), "1".into()), ("b".into(), "x".into())]
+        );
+        assert_eq!(
+            c[5],
+            vec![("a".into(), "2".into()), ("b".into(), "z".into())]
+        );
+        assert!(parse_vary("a=").is_err());
+        assert!(parse_vary("novalue").is_err());
+    }
+
+    #[test]
+    fn set_arguments_quote_quantities_only() {
+        assert_eq!(set_arg("gas.x", "0.5"), "gas.x=0.5");
+        assert_eq!(set_arg("gas.flow", "2.3 l/min"), "gas.flow=\"2.3 l/min\"");
+        assert_eq!(leading_number("2.3 l/min"), Some(2.3));
+    }
+}
