@@ -7,6 +7,7 @@
 //! ([`grid`]), the co-simulation driver with its coupling checks ([`driver`]), and the
 //! [`StageTimer`] that times each named stage of a step (shared/DESIGN.md, "The step").
 
+pub mod abi;
 pub mod backend;
 pub mod drag;
 pub mod driver;

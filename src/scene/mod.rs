@@ -101,6 +101,12 @@ impl Scene {
         })
     }
 
+    /// The scene (after overrides) as JSON text: what the DEM ABI's `pf_dem_create` takes.
+    pub fn to_json(&self) -> String {
+        let value: toml::Value = toml::from_str(&self.text).expect("re-serialised scene parses");
+        serde_json::to_string(&value).expect("TOML values serialise to JSON")
+    }
+
     /// The folder a run writes to when no `--out` is given.
     pub fn default_output_dir(&self) -> std::path::PathBuf {
         Path::new("results").join(&self.file.name)

@@ -1,0 +1,126 @@
+/* plugflow DEM ABI: the one C interface every external DEM engine implements so that
+ * plugflow's gas and coupling layer can drive it (bindings/native, bindings/liggghts,
+ * bindings/yade). Licence: MIT OR Apache-2.0.
+ *
+ * Conventions
+ *  - Units SI. Vectors are interleaved x, y, z triples of doubles (3 n values for n grains).
+ *  - Grain order: the order of the last pf_dem_read_particles; it changes only in
+ *    pf_dem_advance, pf_dem_insert and pf_dem_remove_past_outlet. Per-grain inputs
+ *    (fluid forces) are given in that order.
+ *  - Every call returns a pf_status; on failure pf_dem_last_error tells why. A call never
+ *    ends the process and never lets an exception or a panic cross this boundary.
+ *  - pf_dem_abi_version() == PF_DEM_ABI_MAJOR << 16 | PF_DEM_ABI_MINOR. A loader refuses a
+ *    library with another major; minors only add optional calls (a loader binds optional
+ *    calls only when the library exports them).
+ *  - Optional calls: pf_dem_set_implicit_drag, pf_dem_flow_get.
+ */
+#ifndef PLUGFLOW_DEM_H
+#define PLUGFLOW_DEM_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+#define PF_DEM_ABI_MAJOR 1
+#define PF_DEM_ABI_MINOR 0
+
+/* Status codes (fixed numbers; never renumbered). */
+#define PF_OK 0
+#define PF_ERR_NULL 1             /* a required pointer or the handle is NULL */
+#define PF_ERR_INVALID_ARGUMENT 2 /* an argument does not fit the engine's state */
+#define PF_ERR_SCENE 3            /* the scene cannot be built (field and reason in last_error) */
+#define PF_ERR_NON_FINITE 4       /* NaN or blow-up: step and grain in last_error */
+#define PF_ERR_ENGINE 5           /* the engine failed (its message in last_error) */
+#define PF_ERR_BUFFER_TOO_SMALL 6 /* capacity below the count; nothing written */
+#define PF_ERR_PANIC 7            /* an internal error was caught at the boundary */
+#define PF_ERR_UNSUPPORTED 8      /* the engine cannot do what was asked */
+
+typedef int32_t pf_status;
+
+/* The engine instance. */
+typedef struct pf_dem pf_dem;
+
+/* What the engine is and where it stands. */
+typedef struct pf_dem_info {
+    double time_step;      /* DEM time step, s */
+    double time;           /* simulated time, s */
+    uint64_t step_count;   /* steps taken */
+    uint64_t particle_count; /* grains in the domain */
+    uint64_t wall_count;   /* walls pf_dem_read_wall_forces reports */
+    char name[32];         /* engine name, NUL-terminated ("native", "liggghts", "yade") */
+    char version[96];      /* engine version, NUL-terminated */
+} pf_dem_info;
+
+/* Grains the engine fed and removed itself (inlets and outlets of the scene). */
+typedef struct pf_dem_flow {
+    uint64_t fed_count;      /* grains fed by the inlet */
+    double fed_mass;         /* kg */
+    uint64_t outflow_count;  /* grains that left through the outlet */
+    double outflow_mass;     /* kg */
+    uint64_t lost_count;     /* grains that left elsewhere */
+} pf_dem_flow;
+
+/* PF_DEM_ABI_MAJOR << 16 | PF_DEM_ABI_MINOR of the library. */
+uint32_t pf_dem_abi_version(void);
+
+/* Build an engine from the scene (the scene file as JSON text, `len` bytes, UTF-8).
+ * On success *out holds the handle. On failure *out is NULL and
+ * pf_dem_last_error(NULL, ...) tells why. */
+pf_status pf_dem_create(const char *scene_json, size_t len, pf_dem **out);
+
+/* Free the engine; NULL is ignored. */
+void pf_dem_destroy(pf_dem *dem);
+
+/* Copy the last error message of `dem` (or, with NULL, of the last failed pf_dem_create on
+ * this thread) into buf (NUL-terminated, truncated to len). Returns the message length
+ * without the NUL, so a caller can size its buffer. */
+size_t pf_dem_last_error(const pf_dem *dem, char *buf, size_t len);
+
+/* Fill *info. */
+pf_status pf_dem_info_get(const pf_dem *dem, pf_dem_info *info);
+
+/* Advance `steps` DEM steps with the fluid forces held as last set. */
+pf_status pf_dem_advance(pf_dem *dem, uint64_t steps);
+
+/* Copy the grains into caller buffers of `capacity` grains (id: n; x, v, omega: 3 n;
+ * radius, mass: n). Any buffer may be NULL to skip it. PF_ERR_BUFFER_TOO_SMALL when
+ * capacity < particle_count. */
+pf_status pf_dem_read_particles(const pf_dem *dem, size_t capacity, uint64_t *id, double *x,
+                                double *v, double *omega, double *radius, double *mass);
+
+/* Set the fluid force on every grain (3 n values, N), held until the next call. */
+pf_status pf_dem_set_fluid_forces(pf_dem *dem, size_t n, const double *force);
+
+/* Optional. Implicit drag: the engine adds coefficient_i (u_i - v_i) at every step, with
+ * coefficient (n values, kg/s) and fluid velocity u (3 n values, m/s), on top of `force`
+ * (3 n values, N; may be NULL for none). */
+pf_status pf_dem_set_implicit_drag(pf_dem *dem, size_t n, const double *force,
+                                   const double *coefficient, const double *fluid_velocity);
+
+/* Insert n grains (x, v: 3 n; radius, density: n); the ids given go to ids_out (n; may be
+ * NULL). PF_ERR_INVALID_ARGUMENT when a grain would overlap a wall or another grain badly
+ * or lies outside the domain. */
+pf_status pf_dem_insert(pf_dem *dem, size_t n, const double *x, const double *v,
+                        const double *radius, const double *density, uint64_t *ids_out);
+
+/* Remove grains past the outlet; their mass (kg) goes to *removed_mass (may be NULL). */
+pf_status pf_dem_remove_past_outlet(pf_dem *dem, double *removed_mass);
+
+/* Net force of the grains on each wall (3 wall_count values, N); names via
+ * pf_dem_wall_name. PF_ERR_BUFFER_TOO_SMALL when capacity < wall_count. */
+pf_status pf_dem_read_wall_forces(const pf_dem *dem, size_t capacity, double *force);
+
+/* Name of wall `index` into buf (NUL-terminated, truncated to len). */
+pf_status pf_dem_wall_name(const pf_dem *dem, size_t index, char *buf, size_t len);
+
+/* Optional. The engine's own feed and outflow counters. */
+pf_status pf_dem_flow_get(const pf_dem *dem, pf_dem_flow *flow);
+
+#ifdef __cplusplus
+}
+#endif
+
+#endif /* PLUGFLOW_DEM_H */
