@@ -8,6 +8,7 @@
 //! [`StageTimer`] that times each named stage of a step (shared/DESIGN.md, "The step").
 
 pub mod abi;
+pub mod abi_export;
 pub mod backend;
 pub mod drag;
 pub mod driver;

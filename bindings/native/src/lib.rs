@@ -10,12 +10,15 @@
 
 use std::cell::RefCell;
 use std::ffi::c_char;
-use std::panic::{catch_unwind, AssertUnwindSafe};
+use std::panic::catch_unwind;
 
 use plugflow::dem::{DemConfig, NativeDem};
 use plugflow::scene::Scene;
 use plugflow_coupling::abi::{self, status, PfDem, PfDemFlow, PfDemInfo};
-use plugflow_coupling::{BackendError, DemBackend, NewParticle, Vec3};
+use plugflow_coupling::abi_export::{
+    self, backend_failure, copy_text, fill, input, panic_text, triples, ExportedEngine, Failure,
+};
+use plugflow_coupling::{DemBackend, NewParticle, Vec3};
 
 /// The engine and its last error.
 pub struct Handle {
@@ -29,76 +32,20 @@ thread_local! {
     static CREATE_ERROR: RefCell<String> = const { RefCell::new(String::new()) };
 }
 
-type Failure = (i32, String);
-
-fn backend_failure(e: BackendError) -> Failure {
-    let code = match &e {
-        BackendError::NonFinite { .. } => status::NON_FINITE,
-        BackendError::InvalidArgument { .. } => status::INVALID_ARGUMENT,
-        BackendError::Engine { .. } => status::ENGINE,
-    };
-    (code, e.to_string())
+impl ExportedEngine for Handle {
+    fn last_error_mut(&mut self) -> &mut String {
+        &mut self.last_error
+    }
+    fn last_error(&self) -> &str {
+        &self.last_error
+    }
 }
 
-fn panic_text(p: Box<dyn std::any::Any + Send>) -> String {
-    p.downcast_ref::<&str>()
-        .map(|s| s.to_string())
-        .or_else(|| p.downcast_ref::<String>().cloned())
-        .unwrap_or_else(|| "unknown panic".into())
-}
-
-/// Run `body` on the handle behind `dem`, catching panics and recording errors.
 unsafe fn with_handle(
-    dem: *mut PfDem,
+    dem: *const PfDem,
     body: impl FnOnce(&mut Handle) -> Result<(), Failure>,
 ) -> i32 {
-    if dem.is_null() {
-        return status::NULL;
-    }
-    let h = &mut *(dem as *mut Handle);
-    let result = catch_unwind(AssertUnwindSafe(|| body(h)));
-    match result {
-        Ok(Ok(())) => status::OK,
-        Ok(Err((code, msg))) => {
-            h.last_error = msg;
-            code
-        }
-        Err(p) => {
-            h.last_error = format!("internal error: {}", panic_text(p));
-            status::PANIC
-        }
-    }
-}
-
-/// A slice from a C pointer, or a NULL error naming the argument.
-unsafe fn input<'a, T>(p: *const T, n: usize, name: &str) -> Result<&'a [T], Failure> {
-    if n == 0 {
-        return Ok(&[]);
-    }
-    if p.is_null() {
-        return Err((status::NULL, format!("`{name}` is NULL")));
-    }
-    Ok(std::slice::from_raw_parts(p, n))
-}
-
-fn copy_text(text: &str, buf: *mut c_char, len: usize) {
-    if buf.is_null() || len == 0 {
-        return;
-    }
-    let bytes = text.as_bytes();
-    let n = bytes.len().min(len - 1);
-    // SAFETY: the caller gave `len` writable chars.
-    unsafe {
-        std::ptr::copy_nonoverlapping(bytes.as_ptr() as *const c_char, buf, n);
-        *buf.add(n) = 0;
-    }
-}
-
-fn fill(dst: &mut [c_char], text: &str) {
-    let room = dst.len() - 1;
-    for (d, b) in dst.iter_mut().zip(text.bytes().take(room)) {
-        *d = b as c_char;
-    }
+    abi_export::with_handle::<Handle>(dem, body)
 }
 
 #[no_mangle]
@@ -164,18 +111,13 @@ pub unsafe extern "C" fn pf_dem_last_error(
     buf: *mut c_char,
     len: usize,
 ) -> usize {
-    let text = if dem.is_null() {
-        CREATE_ERROR.with(|e| e.borrow().clone())
-    } else {
-        (*(dem as *const Handle)).last_error.clone()
-    };
-    copy_text(&text, buf, len);
-    text.len()
+    let create = CREATE_ERROR.with(|e| e.borrow().clone());
+    abi_export::last_error::<Handle>(dem, &create, buf, len)
 }
 
 #[no_mangle]
 pub unsafe extern "C" fn pf_dem_info_get(dem: *const PfDem, info: *mut PfDemInfo) -> i32 {
-    with_handle(dem as *mut PfDem, |h| {
+    with_handle(dem, |h| {
         if info.is_null() {
             return Err((status::NULL, "`info` is NULL".into()));
         }
@@ -224,7 +166,7 @@ pub unsafe extern "C" fn pf_dem_read_particles(
     radius: *mut f64,
     mass: *mut f64,
 ) -> i32 {
-    with_handle(dem as *mut PfDem, |h| {
+    with_handle(dem, |h| {
         let p = h.dem.particles();
         if capacity < p.len() {
             return Err((
@@ -240,10 +182,6 @@ pub unsafe extern "C" fn pf_dem_read_particles(
         write_slice(mass, p.mass);
         Ok(())
     })
-}
-
-fn triples(flat: &[f64]) -> Vec<Vec3> {
-    flat.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect()
 }
 
 #[no_mangle]
@@ -307,7 +245,7 @@ pub unsafe extern "C" fn pf_dem_read_wall_forces(
     capacity: usize,
     force: *mut f64,
 ) -> i32 {
-    with_handle(dem as *mut PfDem, |h| {
+    with_handle(dem, |h| {
         let w = h.dem.wall_forces();
         if capacity < w.len() {
             return Err((
@@ -331,7 +269,7 @@ pub unsafe extern "C" fn pf_dem_wall_name(
     buf: *mut c_char,
     len: usize,
 ) -> i32 {
-    with_handle(dem as *mut PfDem, |h| {
+    with_handle(dem, |h| {
         let name = h.wall_names.get(index).ok_or_else(|| {
             (
                 status::INVALID_ARGUMENT,
@@ -345,7 +283,7 @@ pub unsafe extern "C" fn pf_dem_wall_name(
 
 #[no_mangle]
 pub unsafe extern "C" fn pf_dem_flow_get(dem: *const PfDem, flow: *mut PfDemFlow) -> i32 {
-    with_handle(dem as *mut PfDem, |h| {
+    with_handle(dem, |h| {
         if flow.is_null() {
             return Err((status::NULL, "`flow` is NULL".into()));
         }

@@ -1,0 +1,449 @@
+//! One LIGGGHTS instance driven through its library interface (via the C++ layer of
+//! shim.cpp, which stops exceptions), with plugflow's bookkeeping around it.
+
+use std::ffi::{c_char, c_int, c_void, CStr, CString};
+use std::path::PathBuf;
+use std::sync::Mutex;
+
+use plugflow::dem::{DemConfig, NativeDem};
+use plugflow::scene::Scene;
+use plugflow_coupling::abi::PfDemFlow;
+use plugflow_coupling::DemBackend;
+
+use crate::input::{map, Mapped, Outlet};
+
+extern "C" {
+    fn pfl_open(
+        log: *const c_char,
+        screen: *const c_char,
+        out: *mut *mut c_void,
+        err: *mut c_char,
+        len: usize,
+    ) -> c_int;
+    fn pfl_close(lmp: *mut c_void, err: *mut c_char, len: usize) -> c_int;
+    fn pfl_command(lmp: *mut c_void, cmd: *const c_char, err: *mut c_char, len: usize) -> c_int;
+    fn pfl_extract_atom(
+        lmp: *mut c_void,
+        name: *const c_char,
+        out: *mut *mut c_void,
+        err: *mut c_char,
+        len: usize,
+    ) -> c_int;
+    fn pfl_extract_global(
+        lmp: *mut c_void,
+        name: *const c_char,
+        out: *mut *mut c_void,
+        err: *mut c_char,
+        len: usize,
+    ) -> c_int;
+    fn pfl_extract_fix(
+        lmp: *mut c_void,
+        id: *const c_char,
+        kind: c_int,
+        out: *mut *mut c_void,
+        err: *mut c_char,
+        len: usize,
+    ) -> c_int;
+}
+
+/// LIGGGHTS instances share MPI's process-wide state: open and close one at a time.
+static OPEN_CLOSE: Mutex<()> = Mutex::new(());
+
+/// An error of a LIGGGHTS call.
+pub type EngineError = String;
+
+/// A LIGGGHTS instance with the scene mapped into it.
+pub struct Liggghts {
+    lmp: *mut c_void,
+    pub mapped: Mapped,
+    pub cfg: DemConfig,
+    pub time: f64,
+    pub steps: u64,
+    /// The next run must set up again (atoms were added or deleted).
+    needs_setup: bool,
+    pub version: String,
+    workdir: PathBuf,
+    pub flow: PfDemFlow,
+    /// Grains created through pf_dem_insert (not counted as fed).
+    inserted: std::collections::HashSet<u64>,
+    /// Every grain id seen so far.
+    seen: std::collections::HashSet<u64>,
+    /// Local snapshot refreshed after every change.
+    pub ids: Vec<u64>,
+    pub x: Vec<[f64; 3]>,
+    pub v: Vec<[f64; 3]>,
+    pub omega: Vec<[f64; 3]>,
+    pub radius: Vec<f64>,
+    pub mass: Vec<f64>,
+}
+
+fn call(f: impl FnOnce(*mut c_char, usize) -> c_int) -> Result<(), EngineError> {
+    let mut buf = vec![0 as c_char; 512];
+    if f(buf.as_mut_ptr(), buf.len()) == 0 {
+        Ok(())
+    } else {
+        // SAFETY: the shim NUL-terminates within the buffer.
+        Err(unsafe { CStr::from_ptr(buf.as_ptr()) }
+            .to_string_lossy()
+            .into_owned())
+    }
+}
+
+impl Liggghts {
+    /// Check and map the scene, start LIGGGHTS, feed it the input, insert the scene's
+    /// initial grains (placed by plugflow, so both engines start from the same bed).
+    pub fn new(scene: &Scene) -> Result<Self, EngineError> {
+        let cfg = DemConfig::from_scene(scene).map_err(|e| e.to_string())?;
+        let mapped = map(scene, &cfg).map_err(|e| e.to_string())?;
+        // The initial fill exactly as the built-in engine places it.
+        let initial = if cfg.initial.is_some() {
+            let mut native_cfg = cfg.clone();
+            native_cfg.inlet = None;
+            let n = NativeDem::new(native_cfg).map_err(|e| e.to_string())?;
+            let p = n.particles();
+            Some((p.position.to_vec(), p.velocity.to_vec()))
+        } else {
+            None
+        };
+        let workdir = std::env::temp_dir().join(format!(
+            "plugflow-liggghts-{}-{:p}",
+            std::process::id(),
+            &cfg as *const _
+        ));
+        std::fs::create_dir_all(&workdir).map_err(|e| format!("{}: {e}", workdir.display()))?;
+        let log = CString::new(workdir.join("log.liggghts").display().to_string())
+            .map_err(|e| e.to_string())?;
+        let screen = CString::new(workdir.join("screen.liggghts").display().to_string())
+            .map_err(|e| e.to_string())?;
+        let mut lmp = std::ptr::null_mut();
+        {
+            let _g = OPEN_CLOSE.lock().unwrap_or_else(|p| p.into_inner());
+            // SAFETY: valid C strings and out-pointer.
+            call(|e, l| unsafe { pfl_open(log.as_ptr(), screen.as_ptr(), &mut lmp, e, l) })?;
+        }
+        let version = std::fs::read_to_string(workdir.join("screen.liggghts"))
+            .ok()
+            .and_then(|s| {
+                s.lines()
+                    .find(|l| l.starts_with("LIGGGHTS"))
+                    .map(|l| l.trim().to_string())
+            })
+            .unwrap_or_else(|| "LIGGGHTS (version unknown)".into());
+        let mut me = Self {
+            lmp,
+            mapped,
+            cfg,
+            time: 0.0,
+            steps: 0,
+            needs_setup: true,
+            version,
+            workdir,
+            flow: PfDemFlow::default(),
+            inserted: Default::default(),
+            seen: Default::default(),
+            ids: Vec::new(),
+            x: Vec::new(),
+            v: Vec::new(),
+            omega: Vec::new(),
+            radius: Vec::new(),
+            mass: Vec::new(),
+        };
+        for c in me.mapped.commands.clone() {
+            me.command(&c)?;
+        }
+        if let Some((x, v)) = initial {
+            let r = vec![me.mapped.grain_radius; x.len()];
+            let rho = vec![me.mapped.grain_density; x.len()];
+            me.insert(&x, &v, &r, &rho)?;
+        }
+        me.refresh()?;
+        // LIGGGHTS refuses to set up a granular run before it knows a grain type: with
+        // no grains and no inlet, setup waits for the first inserted grain.
+        if !me.ids.is_empty() || me.cfg.inlet.is_some() {
+            me.command("run 0")?;
+            me.needs_setup = false;
+        }
+        Ok(me)
+    }
+
+    /// One input line.
+    pub fn command(&mut self, cmd: &str) -> Result<(), EngineError> {
+        let c = CString::new(cmd).map_err(|e| e.to_string())?;
+        // SAFETY: live instance, valid C string.
+        call(|e, l| unsafe { pfl_command(self.lmp, c.as_ptr(), e, l) })
+            .map_err(|m| format!("`{cmd}`: {m}"))
+    }
+
+    fn atom_ptr(&self, name: &str) -> Result<*mut c_void, EngineError> {
+        let c = CString::new(name).expect("static name");
+        let mut out = std::ptr::null_mut();
+        // SAFETY: live instance.
+        call(|e, l| unsafe { pfl_extract_atom(self.lmp, c.as_ptr(), &mut out, e, l) })?;
+        if out.is_null() {
+            return Err(format!("LIGGGHTS has no per-atom `{name}`"));
+        }
+        Ok(out)
+    }
+
+    fn nlocal(&self) -> Result<usize, EngineError> {
+        let c = CString::new("nlocal").expect("static name");
+        let mut out = std::ptr::null_mut();
+        // SAFETY: live instance.
+        call(|e, l| unsafe { pfl_extract_global(self.lmp, c.as_ptr(), &mut out, e, l) })?;
+        if out.is_null() {
+            return Err("LIGGGHTS has no `nlocal`".into());
+        }
+        // SAFETY: nlocal is an int.
+        Ok(unsafe { *(out as *const c_int) } as usize)
+    }
+
+    fn fix_array(&self, id: &str) -> Result<*mut *mut f64, EngineError> {
+        let c = CString::new(id).expect("fix ids are ours");
+        let mut out = std::ptr::null_mut();
+        // SAFETY: live instance; per-atom array (type 2).
+        call(|e, l| unsafe { pfl_extract_fix(self.lmp, c.as_ptr(), 2, &mut out, e, l) })?;
+        if out.is_null() {
+            return Err(format!("LIGGGHTS has no per-atom array of fix `{id}`"));
+        }
+        Ok(out as *mut *mut f64)
+    }
+
+    /// Re-read every local atom.
+    pub fn refresh(&mut self) -> Result<(), EngineError> {
+        let n = self.nlocal()?;
+        if n == 0 {
+            // LIGGGHTS allocates its per-atom arrays with the first atom.
+            self.ids.clear();
+            self.x.clear();
+            self.v.clear();
+            self.omega.clear();
+            self.radius.clear();
+            self.mass.clear();
+            return Ok(());
+        }
+        let tag = self.atom_ptr("id")? as *const c_int;
+        let x = self.atom_ptr("x")? as *const *const f64;
+        let v = self.atom_ptr("v")? as *const *const f64;
+        let w = self.atom_ptr("omega")? as *const *const f64;
+        let r = self.atom_ptr("radius")? as *const f64;
+        let m = self.atom_ptr("rmass")? as *const f64;
+        // SAFETY: LIGGGHTS's per-atom arrays hold nlocal atoms (3 doubles per row).
+        unsafe {
+            let row = |p: *const *const f64, i: usize| {
+                let q = *p.add(i);
+                [*q, *q.add(1), *q.add(2)]
+            };
+            self.ids = (0..n).map(|i| *tag.add(i) as u64).collect();
+            self.x = (0..n).map(|i| row(x, i)).collect();
+            self.v = (0..n).map(|i| row(v, i)).collect();
+            self.omega = (0..n).map(|i| row(w, i)).collect();
+            self.radius = (0..n).map(|i| *r.add(i)).collect();
+            self.mass = (0..n).map(|i| *m.add(i)).collect();
+        }
+        for id in &self.ids {
+            if self.seen.insert(*id) && !self.inserted.contains(id) {
+                self.flow.fed_count += 1;
+            }
+        }
+        let fed = self.flow.fed_count;
+        self.flow.fed_mass = fed as f64 * self.mapped.grain_mass;
+        Ok(())
+    }
+
+    /// Advance `steps` steps.
+    pub fn advance(&mut self, steps: u64) -> Result<(), EngineError> {
+        if steps == 0 {
+            return Ok(());
+        }
+        if self.ids.is_empty() && self.cfg.inlet.is_none() {
+            // Nothing to integrate and nothing will arrive: LIGGGHTS would refuse to run.
+            self.steps += steps;
+            self.time = self.steps as f64 * self.cfg.dt;
+            return Ok(());
+        }
+        let before = self.ids.clone();
+        let cmd = if self.needs_setup {
+            format!("run {steps}")
+        } else {
+            format!("run {steps} pre no post no")
+        };
+        self.command(&cmd)?;
+        self.needs_setup = false;
+        self.steps += steps;
+        self.time = self.steps as f64 * self.cfg.dt;
+        self.refresh()?;
+        // Atoms LIGGGHTS dropped at the box edge within the run.
+        let now: std::collections::HashSet<u64> = self.ids.iter().copied().collect();
+        self.flow.lost_count += before.iter().filter(|id| !now.contains(id)).count() as u64;
+        if let Some(i) = self
+            .x
+            .iter()
+            .zip(&self.v)
+            .position(|(x, v)| x.iter().chain(v).any(|c| !c.is_finite()))
+        {
+            return Err(format!(
+                "non-finite or blown-up state at step {}: particle id {}",
+                self.steps, self.ids[i]
+            ));
+        }
+        Ok(())
+    }
+
+    /// Set per-grain fluid forces (in the order of the last refresh). LIGGGHTS keeps them
+    /// with their atoms (fix property/atom) until the next call; new grains start at zero.
+    pub fn set_fluid(&mut self, f: &[[f64; 3]]) -> Result<(), EngineError> {
+        let n = self.nlocal()?;
+        if f.len() != n || n != self.ids.len() {
+            return Err(format!("{} forces for {} grains", f.len(), n));
+        }
+        if n == 0 {
+            return Ok(());
+        }
+        let a = self.fix_array("pf_extf")?;
+        for (i, fi) in f.iter().enumerate() {
+            // SAFETY: the fix's array holds nlocal rows of 3.
+            unsafe {
+                let row = *a.add(i);
+                *row = fi[0];
+                *row.add(1) = fi[1];
+                *row.add(2) = fi[2];
+            }
+        }
+        Ok(())
+    }
+
+    /// Create grains at the given places; returns their ids.
+    pub fn insert(
+        &mut self,
+        x: &[[f64; 3]],
+        v: &[[f64; 3]],
+        r: &[f64],
+        rho: &[f64],
+    ) -> Result<Vec<u64>, EngineError> {
+        let (lo, hi) = (self.cfg.box_lo, self.cfg.box_hi);
+        for (i, p) in x.iter().enumerate() {
+            if (0..3).any(|k| !(p[k] > lo[k] && p[k] < hi[k])) {
+                return Err(format!("grain {i} at {p:?} lies outside the domain"));
+            }
+            if !(r[i] > 0.0 && rho[i] > 0.0) {
+                return Err(format!("grain {i}: radius and density must be positive"));
+            }
+        }
+        // LIGGGHTS gives new atoms the tags after the largest existing one, in order.
+        let first = self.ids.iter().copied().max().unwrap_or(0);
+        for p in x {
+            self.command(&format!(
+                "create_atoms 1 single {:e} {:e} {:e} units box",
+                p[0], p[1], p[2]
+            ))?;
+        }
+        // Radius, density, mass and velocity straight into LIGGGHTS's arrays.
+        let n = self.nlocal()?;
+        let tag = self.atom_ptr("id")? as *const c_int;
+        let rad = self.atom_ptr("radius")? as *mut f64;
+        let dens = self.atom_ptr("density")? as *mut f64;
+        let rm = self.atom_ptr("rmass")? as *mut f64;
+        let vel = self.atom_ptr("v")? as *const *mut f64;
+        let mut ids = Vec::with_capacity(x.len());
+        // SAFETY: arrays of nlocal atoms.
+        unsafe {
+            let mut k = 0;
+            for i in 0..n {
+                let t = *tag.add(i) as u64;
+                if t > first && k < x.len() {
+                    let j = (t - first - 1) as usize;
+                    let j = j.min(x.len() - 1);
+                    *rad.add(i) = r[j];
+                    *dens.add(i) = rho[j];
+                    *rm.add(i) = rho[j] * 4.0 / 3.0 * std::f64::consts::PI * r[j].powi(3);
+                    let row = *vel.add(i);
+                    *row = v[j][0];
+                    *row.add(1) = v[j][1];
+                    *row.add(2) = v[j][2];
+                    ids.push(t);
+                    k += 1;
+                }
+            }
+        }
+        if ids.len() != x.len() {
+            return Err(format!(
+                "LIGGGHTS created {} of {} grains",
+                ids.len(),
+                x.len()
+            ));
+        }
+        ids.sort_unstable();
+        self.inserted.extend(ids.iter().copied());
+        self.needs_setup = true;
+        self.refresh()?;
+        Ok(ids)
+    }
+
+    /// Delete grains past the open ends; returns the mass that left through the outlet.
+    pub fn remove_past_outlet(&mut self) -> Result<f64, EngineError> {
+        let past = |o: &Option<Outlet>, x: &[f64; 3]| {
+            o.is_some_and(|o| (x[o.axis] - o.position) * o.sign > 0.0)
+        };
+        let mut out_mass = 0.0;
+        let mut out_n = 0u64;
+        let mut gone: Vec<u64> = Vec::new();
+        for i in 0..self.ids.len() {
+            if past(&self.mapped.outlet, &self.x[i]) {
+                out_mass += self.mass[i];
+                out_n += 1;
+                gone.push(self.ids[i]);
+            } else if past(&self.mapped.inlet_end_open, &self.x[i]) {
+                self.flow.lost_count += 1;
+                gone.push(self.ids[i]);
+            }
+        }
+        if gone.is_empty() {
+            return Ok(0.0);
+        }
+        // Ids in groups of at most a few hundred per command.
+        for chunk in gone.chunks(200) {
+            let list: Vec<String> = chunk.iter().map(|i| i.to_string()).collect();
+            self.command(&format!("group pf_gone id {}", list.join(" ")))?;
+        }
+        self.command("delete_atoms group pf_gone compress no")?;
+        self.command("group pf_gone delete")?;
+        self.flow.outflow_count += out_n;
+        self.flow.outflow_mass += out_mass;
+        self.needs_setup = true;
+        self.refresh()?;
+        Ok(out_mass)
+    }
+
+    /// Net force of the grains on each wall, N (from `store_force`).
+    pub fn wall_forces(&self) -> Result<Vec<[f64; 3]>, EngineError> {
+        let n = self.nlocal()?;
+        if n == 0 {
+            return Ok(vec![[0.0; 3]; self.mapped.walls.len()]);
+        }
+        let mut out = Vec::new();
+        for (_, id) in &self.mapped.walls {
+            let a = self.fix_array(&format!("force_{id}"))?;
+            let mut s = [0.0; 3];
+            for i in 0..n {
+                // SAFETY: nlocal rows of 3.
+                unsafe {
+                    let row = *a.add(i);
+                    s[0] -= *row;
+                    s[1] -= *row.add(1);
+                    s[2] -= *row.add(2);
+                }
+            }
+            out.push(s);
+        }
+        Ok(out)
+    }
+}
+
+impl Drop for Liggghts {
+    fn drop(&mut self) {
+        let _g = OPEN_CLOSE.lock().unwrap_or_else(|p| p.into_inner());
+        // SAFETY: the instance is closed once.
+        let _ = call(|e, l| unsafe { pfl_close(self.lmp, e, l) });
+        let _ = std::fs::remove_dir_all(&self.workdir);
+    }
+}

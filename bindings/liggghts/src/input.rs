@@ -1,0 +1,300 @@
+//! Scene → LIGGGHTS input. Everything is checked here, before LIGGGHTS sees a line: a
+//! scene this mapping cannot express exactly is refused with the field and the reason.
+
+use plugflow::dem::config::LawSet;
+use plugflow::dem::walls::WallShape;
+use plugflow::dem::DemConfig;
+use plugflow::scene::Scene;
+
+/// A refused scene: field and reason.
+#[derive(Debug)]
+pub struct Refusal {
+    pub field: String,
+    pub reason: String,
+}
+
+impl std::fmt::Display for Refusal {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(
+            f,
+            "field `{}`: {} (LIGGGHTS backend)",
+            self.field, self.reason
+        )
+    }
+}
+
+fn refuse(field: &str, reason: impl Into<String>) -> Refusal {
+    Refusal {
+        field: field.into(),
+        reason: reason.into(),
+    }
+}
+
+/// Where grains leave: past `position` along coordinate `axis` in direction `sign`.
+#[derive(Debug, Clone, Copy)]
+pub struct Outlet {
+    pub axis: usize,
+    pub sign: f64,
+    pub position: f64,
+}
+
+/// The LIGGGHTS input of a scene and what the engine needs to run it.
+#[derive(Debug, Clone)]
+pub struct Mapped {
+    /// Input commands, in order.
+    pub commands: Vec<String>,
+    /// Walls: (plugflow name, LIGGGHTS fix id).
+    pub walls: Vec<(String, String)>,
+    /// Mass of one grain, kg.
+    pub grain_mass: f64,
+    /// Grain radius, m.
+    pub grain_radius: f64,
+    /// Grain density, kg/m³.
+    pub grain_density: f64,
+    /// Outlet of the tube, if open.
+    pub outlet: Option<Outlet>,
+    /// Grains leave through the open inlet end too.
+    pub inlet_end_open: Option<Outlet>,
+}
+
+/// Contact constants of one material pair, as LIGGGHTS's `hooke/stiffness` with absolute
+/// damping takes them.
+#[derive(Debug, Clone, Copy)]
+struct Pair {
+    kn: f64,
+    kt: f64,
+    gamma_n: f64,
+    gamma_t: f64,
+    mu: f64,
+}
+
+fn axis_index(axis: [f64; 3]) -> Option<(usize, f64)> {
+    (0..3).find_map(|k| {
+        let others = (0..3).filter(|&j| j != k).all(|j| axis[j].abs() < 1e-12);
+        (others && (axis[k].abs() - 1.0).abs() < 1e-12).then_some((k, axis[k].signum()))
+    })
+}
+
+const AXES: [&str; 3] = ["x", "y", "z"];
+
+/// Map a checked scene.
+pub fn map(scene: &Scene, cfg: &DemConfig) -> Result<Mapped, Refusal> {
+    if (cfg.radius_max - cfg.radius_min).abs() > 1e-15 * cfg.radius_max {
+        return Err(refuse(
+            "particles.diameter_min",
+            "grains of several sizes are not mapped (the damping per material pair is exact \
+             for one size only); give `particles.diameter`",
+        ));
+    }
+    let r = cfg.radius_min;
+    let rho = cfg.density;
+    let m = rho * 4.0 / 3.0 * std::f64::consts::PI * r * r * r;
+    // Effective masses as the built-in engine uses them: m/2 for a pair, m against a wall.
+    let (m_pp, m_pw) = (0.5 * m, m);
+    let (pp, pw, history) = match &cfg.laws {
+        LawSet::HookeHistory(l) => (
+            Pair {
+                kn: l.pp_normal.kn,
+                kt: l.pp_normal.kt,
+                gamma_n: 2.0 * l.pp_normal.zeta * (l.pp_normal.kn * m_pp).sqrt(),
+                gamma_t: 2.0 * l.pp_normal.zeta * (l.pp_normal.kt * m_pp).sqrt(),
+                mu: l.pp_tangential.mu,
+            },
+            Pair {
+                kn: l.pw_normal.kn,
+                kt: l.pw_normal.kt,
+                gamma_n: 2.0 * l.pw_normal.zeta * (l.pw_normal.kn * m_pw).sqrt(),
+                gamma_t: 2.0 * l.pw_normal.zeta * (l.pw_normal.kt * m_pw).sqrt(),
+                mu: l.pw_tangential.mu,
+            },
+            true,
+        ),
+        LawSet::HookeCoulomb(l) => {
+            // The seeds' regularised Coulomb law min(μ F_n, γ_t |v_t|) is LIGGGHTS's
+            // `tangential no_history` with γ_t = γ_n unless the scene gives γ_t.
+            let gn_pp = 2.0 * l.pp_normal.zeta * (l.pp_normal.kn * m_pp).sqrt();
+            let gn_pw = 2.0 * l.pw_normal.zeta * (l.pw_normal.kn * m_pw).sqrt();
+            (
+                Pair {
+                    kn: l.pp_normal.kn,
+                    kt: l.pp_normal.kt,
+                    gamma_n: gn_pp,
+                    gamma_t: l.pp_tangential.gamma_t.unwrap_or(gn_pp),
+                    mu: l.pp_tangential.mu,
+                },
+                Pair {
+                    kn: l.pw_normal.kn,
+                    kt: l.pw_normal.kt,
+                    gamma_n: gn_pw,
+                    gamma_t: l.pw_tangential.gamma_t.unwrap_or(gn_pw),
+                    mu: l.pw_tangential.mu,
+                },
+                false,
+            )
+        }
+        LawSet::HertzHistory(_) | LawSet::HertzCoulomb(_) => {
+            return Err(refuse(
+                "contact.normal",
+                "`hertz` is not mapped yet: LIGGGHTS's Hertz damping (β from ln e) differs \
+                 from the built-in engine's exact-restitution Tsuji damping; use `hooke`",
+            ))
+        }
+    };
+    let f = &scene.file;
+    if f.initial.is_some() && f.inlet.is_some() {
+        // Both work; nothing to refuse. (Initial grains are placed by plugflow and inserted.)
+    }
+    let mut c: Vec<String> = Vec::new();
+    let mut push = |s: String| c.push(s);
+    push("atom_style granular".into());
+    push("atom_modify map array".into());
+    push("boundary f f f".into());
+    push("newton off".into());
+    push("communicate single vel yes".into());
+    push("units si".into());
+    let (lo, hi) = (cfg.box_lo, cfg.box_hi);
+    push(format!(
+        "region pf_box block {:e} {:e} {:e} {:e} {:e} {:e} units box",
+        lo[0], hi[0], lo[1], hi[1], lo[2], hi[2]
+    ));
+    push("create_box 2 pf_box".into());
+    push(format!("neighbor {:e} bin", cfg.skin));
+    push("neigh_modify delay 0".into());
+    let matrix = |name: &str, pp: f64, pw: f64| {
+        format!("fix pf_{name} all property/global {name} peratomtypepair 2 {pp:e} {pw:e} {pw:e} {pw:e}")
+    };
+    push(matrix("kn", pp.kn, pw.kn));
+    push(matrix("kt", pp.kt, pw.kt));
+    push(matrix("gamman_abs", pp.gamma_n, pw.gamma_n));
+    push(matrix("gammat_abs", pp.gamma_t, pw.gamma_t));
+    push(matrix("coefficientFriction", pp.mu, pw.mu));
+    let model = format!(
+        "model hooke/stiffness tangential {}",
+        if history { "history" } else { "no_history" }
+    );
+    // Model keywords follow the model names in `pair_style` but the wall arguments in
+    // `fix wall/gran`.
+    let keywords = "absolute_damping on tangential_damping on";
+    push(format!("pair_style gran {model} {keywords}"));
+    push("pair_coeff * *".into());
+    push(format!("timestep {:e}", cfg.dt));
+    let g = cfg.gravity;
+    let gn = (g[0] * g[0] + g[1] * g[1] + g[2] * g[2]).sqrt();
+    if gn > 0.0 {
+        push(format!(
+            "fix pf_gravity all gravity {gn:e} vector {:e} {:e} {:e}",
+            g[0] / gn,
+            g[1] / gn,
+            g[2] / gn
+        ));
+    }
+    let mut walls = Vec::new();
+    let mut outlet = None;
+    let mut inlet_end_open = None;
+    for (k, w) in cfg.walls.iter().enumerate() {
+        let id = format!("pf_wall{k}");
+        let primitive = match &w.shape {
+            WallShape::Cylinder {
+                point,
+                axis,
+                radius,
+            } => {
+                let (a, _) = axis_index(*axis).ok_or_else(|| {
+                    refuse("tube.axis", "LIGGGHTS's cylinder walls lie along x, y or z")
+                })?;
+                let others: Vec<f64> = (0..3).filter(|&j| j != a).map(|j| point[j]).collect();
+                format!(
+                    "{}cylinder {:e} {:e} {:e}",
+                    AXES[a], radius, others[0], others[1]
+                )
+            }
+            WallShape::Plane { point, normal } => {
+                let (a, _) = axis_index(*normal).ok_or_else(|| {
+                    refuse(
+                        &format!("walls ({})", w.name),
+                        "LIGGGHTS's plane walls are normal to x, y or z",
+                    )
+                })?;
+                format!("{}plane {:e}", AXES[a], point[a])
+            }
+        };
+        push(format!(
+            "fix {id} all wall/gran {model} primitive type 2 {primitive} store_force yes {keywords}"
+        ));
+        walls.push((w.name.clone(), id));
+    }
+    if let Some(t) = cfg.tube {
+        let (a, sign) = axis_index(t.axis)
+            .ok_or_else(|| refuse("tube.axis", "must be along x, y or z for LIGGGHTS"))?;
+        if t.outlet_open {
+            outlet = Some(Outlet {
+                axis: a,
+                sign,
+                position: t.origin[a] + sign * t.length,
+            });
+        }
+        if t.inlet_open {
+            inlet_end_open = Some(Outlet {
+                axis: a,
+                sign: -sign,
+                position: t.origin[a],
+            });
+        }
+        if let Some(inl) = &cfg.inlet {
+            let (lo_s, hi_s) = (t.origin[a], t.origin[a] + sign * inl.slab_length);
+            let others: Vec<f64> = (0..3).filter(|&j| j != a).map(|j| t.origin[j]).collect();
+            push(format!(
+                "fix pf_pts all particletemplate/sphere 15485863 atom_type 1 density constant {rho:e} radius constant {r:e}"
+            ));
+            push("fix pf_pdd all particledistribution/discrete 32452843 1 pf_pts 1.0".into());
+            push(format!(
+                "region pf_inlet cylinder {} {:e} {:e} {:e} {:e} {:e} units box",
+                AXES[a],
+                others[0],
+                others[1],
+                t.radius - r,
+                lo_s.min(hi_s),
+                lo_s.max(hi_s)
+            ));
+            // A batch every 5 ms: a few grains per batch at the seeds' feed rates.
+            let every = ((5e-3 / cfg.dt).round() as u64).max(1);
+            let v = [
+                t.axis[0] * inl.velocity,
+                t.axis[1] * inl.velocity,
+                t.axis[2] * inl.velocity,
+            ];
+            push(format!(
+                "fix pf_ins all insert/rate/region seed 49979687 distributiontemplate pf_pdd nparticles INF massrate {:e} insert_every {every} overlapcheck yes all_in yes vel constant {:e} {:e} {:e} region pf_inlet ntry_mc 10000",
+                inl.rate * m,
+                v[0],
+                v[1],
+                v[2]
+            ));
+        }
+    } else if cfg.inlet.is_some() {
+        return Err(refuse(
+            "inlet",
+            "an inlet needs a [tube] in the LIGGGHTS backend",
+        ));
+    }
+    // The fluid force: one per-atom vector LIGGGHTS integrates through fix addforce.
+    push("fix pf_extf all property/atom extf vector yes no no 0. 0. 0.".into());
+    for (k, x) in AXES.iter().enumerate() {
+        push(format!("variable pf_f{x} atom f_pf_extf[{}]", k + 1));
+    }
+    push("fix pf_fluid all addforce v_pf_fx v_pf_fy v_pf_fz".into());
+    push("fix pf_integrate all nve/sphere".into());
+    // Grains past an open end are removed by plugflow between runs; any that leave the
+    // box within a run must not stop LIGGGHTS.
+    push("thermo_modify lost ignore norm no".into());
+    push("thermo 100000000".into());
+    Ok(Mapped {
+        commands: c,
+        walls,
+        grain_mass: m,
+        grain_radius: r,
+        grain_density: rho,
+        outlet,
+        inlet_end_open,
+    })
+}

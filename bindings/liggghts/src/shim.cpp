@@ -1,0 +1,71 @@
+// Thin C++ layer over LIGGGHTS's library interface (library.h). Its only job is to stop
+// C++ exceptions at this boundary: every body catches everything and turns it into a status
+// and a message. The plugflow DEM ABI itself is implemented in Rust (src/lib.rs) on top of
+// these calls. Licence: GPL-2.0-or-later (links LIGGGHTS).
+#include <cstddef>
+#include <cstring>
+#include <exception>
+#include <stdexcept>
+#include <string>
+
+#include <library.h>
+
+namespace {
+void put(char *err, size_t len, const char *what) {
+    if (err == nullptr || len == 0) return;
+    std::strncpy(err, what, len - 1);
+    err[len - 1] = 0;
+}
+}  // namespace
+
+#define PFL_GUARD(...)                                                        \
+    try {                                                                     \
+        __VA_ARGS__;                                                          \
+        return 0;                                                             \
+    } catch (const std::exception &e) {                                       \
+        put(err, len, e.what());                                              \
+        return 1;                                                             \
+    } catch (...) {                                                           \
+        put(err, len, "unknown C++ exception in LIGGGHTS");                   \
+        return 1;                                                             \
+    }
+
+extern "C" {
+
+// Open an instance without MPI, writing its log and screen output to files (LIGGGHTS
+// crashes with `-screen none`).
+int pfl_open(const char *log_path, const char *screen_path, void **out, char *err, size_t len) {
+    PFL_GUARD({
+        std::string log(log_path), screen(screen_path);
+        const char *args[] = {"liggghts", "-log", log.c_str(), "-screen", screen.c_str(),
+                              "-echo", "none"};
+        *out = nullptr;
+        lammps_open_no_mpi(7, const_cast<char **>(args), out);
+        if (*out == nullptr) throw std::runtime_error("lammps_open_no_mpi returned no instance");
+    })
+}
+
+int pfl_close(void *lmp, char *err, size_t len) { PFL_GUARD(lammps_close(lmp)) }
+
+int pfl_command(void *lmp, const char *cmd, char *err, size_t len) {
+    PFL_GUARD(lammps_command(lmp, cmd))
+}
+
+int pfl_natoms(void *lmp, int *out, char *err, size_t len) {
+    PFL_GUARD(*out = lammps_get_natoms(lmp))
+}
+
+int pfl_extract_atom(void *lmp, const char *name, void **out, char *err, size_t len) {
+    PFL_GUARD(*out = lammps_extract_atom(lmp, name))
+}
+
+int pfl_extract_global(void *lmp, const char *name, void **out, char *err, size_t len) {
+    PFL_GUARD(*out = lammps_extract_global(lmp, name))
+}
+
+// Per-atom fix data: style 1 (per-atom), type 1 (vector) or 2 (array).
+int pfl_extract_fix(void *lmp, const char *id, int type, void **out, char *err, size_t len) {
+    PFL_GUARD(*out = lammps_extract_fix(lmp, id, 1, type, 0, 0))
+}
+
+}  // extern "C"
