@@ -10,6 +10,7 @@
 pub mod analysis;
 pub mod cosim;
 pub mod dem;
+pub mod engine;
 pub mod gas;
 pub mod output;
 pub mod png;

@@ -5,13 +5,14 @@
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
-use plugflow_coupling::{BackendError, DemBackend};
+use plugflow_coupling::{BackendError, DemBackend, ParticleView};
 use serde_json::{json, Map, Value};
 
 use crate::analysis::plugs::{median, PlugObservation, PlugTracker, Slicer};
 use crate::analysis::targets;
 use crate::cosim::{check_json, coupling_from_scene};
 use crate::dem::{DemConfig, NativeDem};
+use crate::engine::build_backend;
 use crate::output::figures::{self, Curve, Panel};
 use crate::output::hdf5::{Hdf5Output, RunMeta};
 use crate::output::vtk::VtkOutput;
@@ -72,8 +73,9 @@ pub fn build_engine(scene: &Scene) -> Result<NativeDem, SceneError> {
 
 /// Run a scene to its end.
 pub fn run(scene: &Scene, opts: &RunOptions) -> Result<RunOutcome, RunError> {
-    let mut dem = build_engine(scene)?;
-    let mut gas = coupling_from_scene(scene, dem.config())?;
+    let cfg = DemConfig::from_scene(scene)?;
+    let mut dem = build_backend(scene, &cfg)?;
+    let mut gas = coupling_from_scene(scene, &cfg)?;
     let out_dir = opts
         .out_dir
         .clone()
@@ -129,9 +131,9 @@ pub fn run(scene: &Scene, opts: &RunOptions) -> Result<RunOutcome, RunError> {
     let mut done = 0u64;
     let mut dp_sum = 0.0;
     // Plug statistics on the tube's slices, from the settling time on.
-    let mut tracker = dem.config().tube.map(|t| {
+    let mut tracker = cfg.tube.map(|t| {
         let slice = f.output.slice_length.map(|q| q.si).unwrap_or(3.5e-3);
-        let r = 0.5 * (dem.config().radius_min + dem.config().radius_max);
+        let r = 0.5 * (cfg.radius_min + cfg.radius_max);
         PlugTracker::new(
             Slicer::new(t.origin, t.axis, t.radius, t.length, slice),
             4.0 / 3.0 * std::f64::consts::PI * r * r * r,
@@ -185,7 +187,7 @@ pub fn run(scene: &Scene, opts: &RunOptions) -> Result<RunOutcome, RunError> {
                         });
                         break 'run;
                     }
-                    if let Err(source) = g.exchange(&mut dem) {
+                    if let Err(source) = g.exchange(dem.as_mut()) {
                         failure = Some(RunError::Exchange {
                             time: dem.time(),
                             source,
@@ -197,7 +199,7 @@ pub fn run(scene: &Scene, opts: &RunOptions) -> Result<RunOutcome, RunError> {
             }
         }
         done += n;
-        let in_tube = dem.particles_in_tube();
+        let in_tube = particles_in_tube(&cfg, &dem.particles());
         let dp = gas.as_ref().map(|g| g.pressure_drop());
         let gas_porosity = gas.as_ref().map(|g| g.porosity_profile());
         let gas_pressure = gas.as_ref().map(|g| g.pressure_profile());
@@ -213,7 +215,7 @@ pub fn run(scene: &Scene, opts: &RunOptions) -> Result<RunOutcome, RunError> {
         let plugs_before = tracker.as_ref().map_or(0, |t| t.observations.len());
         if dem.time() >= settle - 0.5 * dt {
             if outflow_at_settle.is_none() {
-                outflow_at_settle = Some((dem.time(), dem.flow.outflow_mass));
+                outflow_at_settle = Some((dem.time(), outflow_mass(dem.as_ref())));
             }
             in_tube_sum += in_tube as Real;
             dp_sum += dp.unwrap_or(0.0);
@@ -273,14 +275,18 @@ pub fn run(scene: &Scene, opts: &RunOptions) -> Result<RunOutcome, RunError> {
             stages.insert(name, json!(secs));
         }
     }
-    let (t_settle, m_settle) = outflow_at_settle.unwrap_or((dem.time(), dem.flow.outflow_mass));
+    let flow = dem.flow();
+    let (t_settle, m_settle) =
+        outflow_at_settle.unwrap_or((dem.time(), outflow_mass(dem.as_ref())));
     let span = dem.time() - t_settle;
-    let outflow_rate = if span > 0.0 {
-        (dem.flow.outflow_mass - m_settle) / span * 3600.0
-    } else {
-        0.0
-    };
-    let cfg = dem.config();
+    // Without the engine's counters there is no outflow figure (null in the summary).
+    let outflow_rate = flow.map(|f| {
+        if span > 0.0 {
+            (f.outflow_mass - m_settle) / span * 3600.0
+        } else {
+            0.0
+        }
+    });
     let summary = json!({
         "status": match &failure { None => "completed".to_string(), Some(e) => format!("failed: {e}") },
         "scene": f.name,
@@ -295,21 +301,24 @@ pub fn run(scene: &Scene, opts: &RunOptions) -> Result<RunOutcome, RunError> {
         "contact_time_s": cfg.dt_report.contact_time,
         "dt_fraction_of_limit": dt / cfg.dt_report.limit,
         "stage_times_s": Value::Object(stages),
-        "neighbor_builds": dem.neighbor_builds(),
         "settling_time_s": settle,
         "particles_in_tube_mean": if in_tube_n > 0 { in_tube_sum / in_tube_n as Real } else { 0.0 },
-        "particles_final": dem.state.len(),
+        "particles_final": dem.particles().len(),
         "mass_outflow_kg_per_h": outflow_rate,
-        "mass_inflow_kg_per_h": if dem.time() > 0.0 { dem.flow.fed_mass / dem.time() * 3600.0 } else { 0.0 },
-        "grains_fed": dem.flow.fed_count,
-        "grains_out": dem.flow.outflow_count,
-        "grains_lost": dem.flow.lost_count,
-        "inlet_backlog_grains": dem.flow.inlet_backlog,
-        "inlet_blocked_time_s": dem.flow.inlet_blocked_time,
+        "mass_inflow_kg_per_h": flow.map(|f| if dem.time() > 0.0 { f.fed_mass / dem.time() * 3600.0 } else { 0.0 }),
+        "grains_fed": flow.map(|f| f.fed_count),
+        "grains_out": flow.map(|f| f.outflow_count),
+        "grains_lost": flow.map(|f| f.lost_count),
         "threads": cfg.threads,
     });
     let mut summary = summary;
-    if let (Some(tr), Some(tube)) = (&tracker, dem.config().tube) {
+    for (name, value) in dem.diagnostics() {
+        summary
+            .as_object_mut()
+            .expect("summary is an object")
+            .insert(name, json!(value));
+    }
+    if let (Some(tr), Some(tube)) = (&tracker, cfg.tube) {
         let o = summary.as_object_mut().expect("summary is an object");
         // Mid tube: plug centres within ±10 % of the tube length around its middle (the
         // seeds' statistics at z = 0.26 m of 0.525 m).
@@ -378,7 +387,7 @@ pub fn run(scene: &Scene, opts: &RunOptions) -> Result<RunOutcome, RunError> {
             420,
         )?;
     }
-    if let (Some(tr), Some(tube)) = (&tracker, dem.config().tube) {
+    if let (Some(tr), Some(tube)) = (&tracker, cfg.tube) {
         if !tr.observations.is_empty() {
             figures::plug_statistics(
                 &out_dir.join("plug_statistics.png"),
@@ -401,6 +410,26 @@ pub fn run(scene: &Scene, opts: &RunOptions) -> Result<RunOutcome, RunError> {
         Some(e) => Err(e),
         None => Ok(RunOutcome { summary, out_dir }),
     }
+}
+
+/// Grains whose centre lies inside the tube (all grains without a tube).
+fn particles_in_tube(cfg: &DemConfig, p: &ParticleView) -> usize {
+    match &cfg.tube {
+        Some(t) => p
+            .position
+            .iter()
+            .filter(|x| {
+                let s: Real = (0..3).map(|k| (x[k] - t.origin[k]) * t.axis[k]).sum();
+                (0.0..=t.length).contains(&s)
+            })
+            .count(),
+        None => p.len(),
+    }
+}
+
+/// Mass that has left through the outlet so far, kg (0 without the engine's counters).
+fn outflow_mass(dem: &dyn DemBackend) -> Real {
+    dem.flow().map_or(0.0, |f| f.outflow_mass)
 }
 
 fn write_json(path: &Path, v: &Value) -> Result<(), RunError> {

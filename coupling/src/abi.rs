@@ -436,6 +436,12 @@ impl DemBackend for AbiBackend {
             });
         }
         self.check(st, "pf_dem_advance")?;
+        // Grains past the outlet leave after every advance, as the built-in engine removes
+        // them within its steps; the engine counts them in its flow.
+        let mut m = 0.0;
+        // SAFETY: live handle, valid out-pointer.
+        let st = unsafe { (self.calls.remove)(self.handle, &mut m) };
+        self.check(st, "pf_dem_remove_past_outlet")?;
         self.refresh()
     }
 
@@ -550,5 +556,15 @@ impl DemBackend for AbiBackend {
 
     fn stage_times(&self) -> Vec<(String, f64)> {
         Vec::new()
+    }
+
+    fn flow(&self) -> Option<crate::backend::GrainFlow> {
+        AbiBackend::flow(self).map(|f| crate::backend::GrainFlow {
+            fed_count: f.fed_count,
+            fed_mass: f.fed_mass,
+            outflow_count: f.outflow_count,
+            outflow_mass: f.outflow_mass,
+            lost_count: f.lost_count,
+        })
     }
 }

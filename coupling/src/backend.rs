@@ -69,6 +69,21 @@ pub struct WallForce {
     pub force: Vec3,
 }
 
+/// Grains an engine fed and removed on its own (scene inlets and outlets).
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct GrainFlow {
+    /// Grains fed by the inlet.
+    pub fed_count: u64,
+    /// Mass fed, kg.
+    pub fed_mass: Real,
+    /// Grains that left through the outlet.
+    pub outflow_count: u64,
+    /// Mass that left through the outlet, kg.
+    pub outflow_mass: Real,
+    /// Grains that left elsewhere.
+    pub lost_count: u64,
+}
+
 /// Errors a backend reports to the driver; each names where it happened.
 #[derive(Debug, thiserror::Error)]
 pub enum BackendError {
@@ -118,4 +133,12 @@ pub trait DemBackend {
     fn wall_forces(&self) -> Vec<WallForce>;
     /// Wall-clock seconds spent in each named stage so far.
     fn stage_times(&self) -> Vec<(String, f64)>;
+    /// Engine-specific figures for the run summary (name, value), e.g. neighbour builds.
+    fn diagnostics(&self) -> Vec<(String, f64)> {
+        Vec::new()
+    }
+    /// The engine's feed and outflow counters; None when the engine keeps none.
+    fn flow(&self) -> Option<GrainFlow> {
+        None
+    }
 }

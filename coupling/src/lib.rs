@@ -16,7 +16,9 @@ pub mod gas;
 pub mod grid;
 pub mod timing;
 
-pub use backend::{BackendError, DemBackend, ImplicitDrag, NewParticle, ParticleView, WallForce};
+pub use backend::{
+    BackendError, DemBackend, GrainFlow, ImplicitDrag, NewParticle, ParticleView, WallForce,
+};
 pub use drag::{DarcyVolumeForce, DragLaw, GrainInFluid};
 pub use driver::{Coupler, CouplingCheck, ExchangeError, Verdict};
 pub use gas::{GasError, GasSolver, GasStepReport};

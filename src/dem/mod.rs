@@ -834,4 +834,23 @@ impl DemBackend for NativeDem {
     fn stage_times(&self) -> Vec<(String, f64)> {
         self.timer.entries()
     }
+
+    fn diagnostics(&self) -> Vec<(String, f64)> {
+        vec![
+            ("neighbor_builds".into(), self.neighbor_builds() as f64),
+            ("inlet_backlog_grains".into(), self.flow.inlet_backlog),
+            ("inlet_blocked_time_s".into(), self.flow.inlet_blocked_time),
+        ]
+    }
+
+    fn flow(&self) -> Option<plugflow_coupling::GrainFlow> {
+        let f = &self.flow;
+        Some(plugflow_coupling::GrainFlow {
+            fed_count: f.fed_count,
+            fed_mass: f.fed_mass,
+            outflow_count: f.outflow_count,
+            outflow_mass: f.outflow_mass,
+            lost_count: f.lost_count,
+        })
+    }
 }

@@ -309,10 +309,20 @@ fn check(f: &SceneFile) -> Result<(), SceneError> {
     }
     // Engine.
     let d = &f.dem;
-    if d.engine != "native" {
+    if !crate::engine::ENGINES.contains(&d.engine.as_str()) {
         return Err(field_err(
             "dem.engine",
-            format!("unknown engine `{}` (this build has: native)", d.engine),
+            format!(
+                "unknown engine `{}` (known: {})",
+                d.engine,
+                crate::engine::ENGINES.join(", ")
+            ),
+        ));
+    }
+    if d.library.is_some() && d.engine == "native" {
+        return Err(field_err(
+            "dem.library",
+            "the built-in engine (`native`) loads no library; set `dem.engine` too",
         ));
     }
     if let Some(dt) = d.dt {

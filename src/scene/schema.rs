@@ -273,9 +273,14 @@ fn default_tangential() -> TangentialLawName {
 #[derive(Debug, Clone, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct DemSpec {
-    /// DEM engine: `native` (default).
+    /// DEM engine: `native` (default, built in), `native_abi` (the built-in engine through
+    /// the C ABI, libplugflow_dem_native.so), `liggghts` (LIGGGHTS through the C ABI,
+    /// libplugflow_dem_liggghts.so, built with the `liggghts` feature).
     #[serde(default = "default_engine")]
     pub engine: String,
+    /// Shared library implementing the DEM ABI for `engine` (default: the plugflow build's
+    /// own, next to the `plugflow` executable).
+    pub library: Option<String>,
     /// Time step, s. Default: contact time / `dt_fraction`. Refused above the stability limit.
     pub dt: Option<Q<Time>>,
     /// Steps per contact time when `dt` is derived. Default 50.
@@ -299,6 +304,7 @@ impl Default for DemSpec {
     fn default() -> Self {
         Self {
             engine: default_engine(),
+            library: None,
             dt: None,
             dt_fraction: default_dt_fraction(),
             rotation: true,

@@ -121,14 +121,6 @@ impl Liggghts {
             // SAFETY: valid C strings and out-pointer.
             call(|e, l| unsafe { pfl_open(log.as_ptr(), screen.as_ptr(), &mut lmp, e, l) })?;
         }
-        let version = std::fs::read_to_string(workdir.join("screen.liggghts"))
-            .ok()
-            .and_then(|s| {
-                s.lines()
-                    .find(|l| l.starts_with("LIGGGHTS"))
-                    .map(|l| l.trim().to_string())
-            })
-            .unwrap_or_else(|| "LIGGGHTS (version unknown)".into());
         let mut me = Self {
             lmp,
             mapped,
@@ -136,7 +128,7 @@ impl Liggghts {
             time: 0.0,
             steps: 0,
             needs_setup: true,
-            version,
+            version: String::new(),
             workdir,
             flow: PfDemFlow::default(),
             inserted: Default::default(),
@@ -157,6 +149,19 @@ impl Liggghts {
             me.insert(&x, &v, &r, &rho)?;
         }
         me.refresh()?;
+        // The banner LIGGGHTS printed on opening: switching to a second log file closes
+        // (and so flushes) the first.
+        let log2 = me.workdir.join("log2.liggghts").display().to_string();
+        me.command(&format!("log {log2}"))?;
+        me.version = ["log.liggghts"]
+            .iter()
+            .filter_map(|f| std::fs::read_to_string(me.workdir.join(f)).ok())
+            .find_map(|s| {
+                s.lines()
+                    .find_map(|l| l.strip_prefix("LIGGGHTS (Version "))
+                    .map(|l| l.split(',').next().unwrap_or(l).trim().to_string())
+            })
+            .unwrap_or_else(|| "unknown version (no banner in LIGGGHTS's output)".into());
         // LIGGGHTS refuses to set up a granular run before it knows a grain type: with
         // no grains and no inlet, setup waits for the first inserted grain.
         if !me.ids.is_empty() || me.cfg.inlet.is_some() {

@@ -1,0 +1,64 @@
+//! The DEM engine a scene names (`dem.engine`): the built-in one directly, or any engine
+//! behind the C ABI (bindings/include/plugflow_dem.h) loaded from its shared library.
+
+use std::path::PathBuf;
+
+use plugflow_coupling::abi::AbiBackend;
+use plugflow_coupling::DemBackend;
+
+use crate::dem::{DemConfig, NativeDem};
+use crate::scene::{Scene, SceneError};
+
+/// Engines a scene may name.
+pub const ENGINES: [&str; 3] = ["native", "native_abi", "liggghts"];
+
+/// The library of an ABI engine: the scene's `dem.library`, else
+/// `libplugflow_dem_<engine>.so` next to the running executable (where cargo builds it;
+/// for test binaries, one folder up).
+fn library(scene: &Scene) -> Result<PathBuf, SceneError> {
+    let d = &scene.file.dem;
+    if let Some(p) = &d.library {
+        return Ok(PathBuf::from(p));
+    }
+    let name = format!("libplugflow_dem_{}.so", d.engine.trim_end_matches("_abi"));
+    let exe = std::env::current_exe().map_err(|e| {
+        SceneError::field("dem.library", format!("cannot locate the executable: {e}"))
+    })?;
+    let dir = exe.parent().map(|p| p.to_path_buf()).unwrap_or_default();
+    let candidates = [dir.join(&name), dir.join("..").join(&name)];
+    candidates
+        .iter()
+        .find(|p| p.exists())
+        .cloned()
+        .ok_or_else(|| {
+            let build = match d.engine.as_str() {
+                "liggghts" => {
+                    "cargo build --release -p plugflow-dem-liggghts --features liggghts \
+                     (after bash scripts/setup-system.sh)"
+                }
+                _ => "cargo build --release -p plugflow-dem-native",
+            };
+            SceneError::field(
+                "dem.engine",
+                format!(
+                    "`{}` needs {name}, not found next to {}: build it with `{build}` or set \
+                     `dem.library`",
+                    d.engine,
+                    exe.display()
+                ),
+            )
+        })
+}
+
+/// Build the engine of a scene.
+pub fn build_backend(scene: &Scene, cfg: &DemConfig) -> Result<Box<dyn DemBackend>, SceneError> {
+    match scene.file.dem.engine.as_str() {
+        "native" => Ok(Box::new(NativeDem::new(cfg.clone())?)),
+        _ => {
+            let lib = library(scene)?;
+            let engine = AbiBackend::load(&lib, &scene.to_json())
+                .map_err(|e| SceneError::field("dem.engine", e.to_string()))?;
+            Ok(Box::new(engine))
+        }
+    }
+}
