@@ -11,6 +11,7 @@ use std::time::Instant;
 
 use plugflow::dem::{DemConfig, NativeDem};
 use plugflow::scene::Scene;
+use plugflow_coupling::abi::AbiBackend;
 use plugflow_coupling::{DemBackend, NewParticle};
 
 fn main() {
@@ -85,16 +86,104 @@ fn main() {
     );
 
     // 3. LIGGGHTS from Debian's package on the same bed.
-    match liggghts(&work, &bed, steps) {
+    let ratio = match liggghts(&work, &bed, steps) {
         Ok(l) => {
             println!("liggghts 1 proc : {:.3e} particle-steps/s", l);
-            println!("ratio native/liggghts: {:.2}", n1 / l);
+            Some(n1 / l)
         }
         Err(e) => {
             println!("liggghts: not measured ({e})");
-            println!("ratio native/liggghts: unavailable");
+            None
         }
+    };
+
+    // 4. The bridge: each engine through the C ABI, advanced in coupling-sized chunks with
+    // a fluid force set after each (as a coupled run does), against one uninterrupted
+    // advance. Hooke (the mapping the LIGGGHTS shim supports) on the same bed.
+    let text = std::fs::read_to_string(&scene_path).unwrap();
+    let hooke = text
+        .replace(
+            "normal = \"hertz\"",
+            "normal = \"hooke\"\ncontact_time = \"1e-4 s\"",
+        )
+        .replace("youngs_modulus = \"5e6 Pa\"\n", "")
+        .replace("poisson_ratio = 0.45\n", "")
+        .replace("dt = \"5e-6 s\"", "dt = \"2e-6 s\"");
+    let hooke_scene = Scene::parse(&hooke, &["initial.count=0".into()]).unwrap();
+    let release = root.join("target/release");
+    for (engine, lib, build) in [
+        (
+            "native",
+            "libplugflow_dem_native.so",
+            "cargo build --release -p plugflow-dem-native",
+        ),
+        (
+            "liggghts",
+            "libplugflow_dem_liggghts.so",
+            "cargo build --release -p plugflow-dem-liggghts --features liggghts",
+        ),
+    ] {
+        let lib = release.join(lib);
+        if !lib.exists() {
+            println!(
+                "{engine} through the ABI: not measured ({} missing: {build})",
+                lib.display()
+            );
+            continue;
+        }
+        let (single, chunked, exchanges) = bridge(&lib, &hooke_scene, &bed, steps / 2, 50);
+        println!(
+            "{engine} through the ABI: {:.3e} particle-steps/s in one advance; \
+             {:.3e} in {exchanges} exchanges of 50 steps; overhead {:.1} µs per exchange",
+            bed.len() as f64 * (steps / 2) as f64 / single,
+            bed.len() as f64 * (steps / 2) as f64 / chunked,
+            (chunked - single) / exchanges as f64 * 1e6
+        );
     }
+    match ratio {
+        Some(r) => println!("ratio native/liggghts: {r:.2}"),
+        None => println!("ratio native/liggghts: unavailable"),
+    }
+}
+
+/// Time `steps` steps of the bed through an ABI library: once in one advance, once in
+/// chunks of `chunk` steps with a fluid force set after each. Returns (one advance s,
+/// chunked s, number of exchanges).
+fn bridge(
+    lib: &Path,
+    scene: &Scene,
+    bed: &[([f64; 3], f64)],
+    steps: u64,
+    chunk: u64,
+) -> (f64, f64, u64) {
+    let grains: Vec<NewParticle> = bed
+        .iter()
+        .map(|&(x, r)| NewParticle {
+            position: x,
+            velocity: [0.0; 3],
+            radius: r,
+            density: 937.0,
+        })
+        .collect();
+    let run = |chunked: bool| -> f64 {
+        let mut e = AbiBackend::load(lib, &scene.to_json()).unwrap_or_else(|e| panic!("{e}"));
+        e.insert(&grains).unwrap();
+        e.advance(1).unwrap();
+        let t = Instant::now();
+        if chunked {
+            let mut done = 0;
+            while done < steps {
+                e.advance(chunk).unwrap();
+                let f = vec![[0.0, 0.0, 1e-7]; e.particles().len()];
+                e.set_fluid_forces(&f, None).unwrap();
+                done += chunk;
+            }
+        } else {
+            e.advance(steps).unwrap();
+        }
+        t.elapsed().as_secs_f64()
+    };
+    (run(false), run(true), steps.div_ceil(chunk))
 }
 
 /// Run the `liggghts` binary on the bed; returns particle-steps/s from its loop time.
