@@ -379,3 +379,90 @@ fn e_cli_runs_a_case_on_liggghts() {
     assert!((100.0..=200.0).contains(&fed), "{fed} grains fed");
     std::fs::remove_dir_all(&out).ok();
 }
+
+fn plugflow(args: &[&str]) -> (i32, String) {
+    let o = std::process::Command::new(env!("CARGO_BIN_EXE_plugflow"))
+        .args(args)
+        .output()
+        .unwrap();
+    (
+        o.status.code().unwrap_or(-1),
+        format!(
+            "{}{}",
+            String::from_utf8_lossy(&o.stdout),
+            String::from_utf8_lossy(&o.stderr)
+        ),
+    )
+}
+
+/// A LIGGGHTS user's own input (cases/liggghts_user) runs coupled with the gas; inputs
+/// plugflow cannot couple are refused with the line and the reason, and an input LIGGGHTS
+/// itself rejects (which would end LIGGGHTS's process) comes back as LIGGGHTS's ERROR
+/// line, found by a child process, while ours goes on.
+#[test]
+fn f_user_liggghts_input() {
+    let _g = SERIAL.lock().unwrap_or_else(|p| p.into_inner());
+    shim();
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let scene = root.join("cases/liggghts_user/scene.toml");
+    let dir = std::env::temp_dir().join(format!("plugflow-lg-user-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let out = dir.join("run");
+    let (code, text) = plugflow(&[
+        "run",
+        scene.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+        "--duration",
+        "0.4",
+        "--set",
+        "output.settling_time=0.2 s",
+        "--quiet",
+    ]);
+    assert_eq!(code, 0, "{text}");
+    let s: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
+    assert_eq!(s["engine"], "liggghts");
+    // The input feeds 6.9e-4 kg/s of 1.35e-6 kg beads: ~200 grains in 0.4 s, all in the
+    // tube, under a pressure drop from the gas.
+    let fed = s["grains_fed"].as_f64().unwrap();
+    assert!((120.0..=260.0).contains(&fed), "{fed} grains fed");
+    assert!(s["pressure_drop_hpa_per_m"].as_f64().unwrap() > 0.0);
+
+    let bad = dir.join("include.in");
+    std::fs::write(&bad, "atom_style granular\ninclude more.in\n").unwrap();
+    let (code, text) = plugflow(&[
+        "run",
+        scene.to_str().unwrap(),
+        "--set",
+        &format!("dem.liggghts_input={}", bad.display()),
+        "--quiet",
+    ]);
+    assert_eq!(code, 2, "{text}");
+    assert!(
+        text.contains("dem.liggghts_input") && text.contains("line 2: `include`"),
+        "{text}"
+    );
+
+    let wrong = dir.join("wrong.in");
+    std::fs::write(
+        &wrong,
+        "atom_style granular\natom_modify map array\nboundary f f f\nunits si\n\
+         region d block -0.005 0.005 -0.005 0.005 -0.002 0.53 units box\ncreate_box 1 d\n\
+         fix x all nosuchfix 1 2\ntimestep 5e-6\nfix i all nve/sphere\n",
+    )
+    .unwrap();
+    let (code, text) = plugflow(&[
+        "run",
+        scene.to_str().unwrap(),
+        "--set",
+        &format!("dem.liggghts_input={}", wrong.display()),
+        "--quiet",
+    ]);
+    assert_eq!(code, 2, "{text}");
+    assert!(
+        text.contains("child process") && text.contains("nosuchfix"),
+        "{text}"
+    );
+    std::fs::remove_dir_all(&dir).ok();
+}

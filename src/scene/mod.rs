@@ -54,7 +54,22 @@ impl Scene {
             path: path.display().to_string(),
             source,
         })?;
-        Self::parse(&text, overrides)
+        let scene = Self::parse(&text, overrides)?;
+        // A LIGGGHTS input named relative to the scene file: make it absolute, so the scene
+        // (and the JSON handed to the engine) means the same from any folder.
+        match &scene.file.dem.liggghts_input {
+            Some(input) if Path::new(input).is_relative() => {
+                let dir = path.parent().unwrap_or(Path::new("."));
+                let abs = std::path::absolute(dir.join(input)).unwrap_or(dir.join(input));
+                let mut all = overrides.to_vec();
+                all.push(format!(
+                    "dem.liggghts_input={}",
+                    toml::Value::String(abs.display().to_string())
+                ));
+                Self::parse(&text, &all)
+            }
+            _ => Ok(scene),
+        }
     }
 
     /// Parse scene text, apply overrides and check ranges.
@@ -317,6 +332,22 @@ fn check(f: &SceneFile) -> Result<(), SceneError> {
                 d.engine,
                 crate::engine::ENGINES.join(", ")
             ),
+        ));
+    }
+    if d.liggghts_input.is_some() && d.engine != "liggghts" {
+        return Err(field_err(
+            "dem.liggghts_input",
+            format!(
+                "a LIGGGHTS input needs `dem.engine = \"liggghts\"` (the scene has `{}`)",
+                d.engine
+            ),
+        ));
+    }
+    if d.liggghts_input.is_some() && f.inlet.is_some() {
+        return Err(field_err(
+            "inlet",
+            "the LIGGGHTS input inserts the grains itself: drop [inlet] (plugflow would feed \
+             a second stream)",
         ));
     }
     if d.library.is_some() && d.engine == "native" {

@@ -281,6 +281,10 @@ pub struct DemSpec {
     /// Shared library implementing the DEM ABI for `engine` (default: the plugflow build's
     /// own, next to the `plugflow` executable).
     pub library: Option<String>,
+    /// Your own LIGGGHTS input for the DEM part (engine `liggghts` only), written as for
+    /// CFDEMcoupling: plugflow drops its `run` lines and `couple/cfd` fixes and adds only
+    /// the fluid-force fixes it needs. Relative to the scene file's folder.
+    pub liggghts_input: Option<String>,
     /// Time step, s. Default: contact time / `dt_fraction`. Refused above the stability limit.
     pub dt: Option<Q<Time>>,
     /// Steps per contact time when `dt` is derived. Default 50.
@@ -305,6 +309,7 @@ impl Default for DemSpec {
         Self {
             engine: default_engine(),
             library: None,
+            liggghts_input: None,
             dt: None,
             dt_fraction: default_dt_fraction(),
             rotation: true,

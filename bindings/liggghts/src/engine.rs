@@ -10,7 +10,7 @@ use plugflow::scene::Scene;
 use plugflow_coupling::abi::PfDemFlow;
 use plugflow_coupling::DemBackend;
 
-use crate::input::{map, Mapped, Outlet};
+use crate::input::{map, map_user, Mapped, Outlet};
 
 extern "C" {
     fn pfl_open(
@@ -61,6 +61,8 @@ pub struct Liggghts {
     pub steps: u64,
     /// The next run must set up again (atoms were added or deleted).
     needs_setup: bool,
+    /// LIGGGHTS inserts grains itself (the scene's inlet, or the user's input).
+    feeds: bool,
     pub version: String,
     workdir: PathBuf,
     pub flow: PfDemFlow,
@@ -94,7 +96,11 @@ impl Liggghts {
     /// initial grains (placed by plugflow, so both engines start from the same bed).
     pub fn new(scene: &Scene) -> Result<Self, EngineError> {
         let cfg = DemConfig::from_scene(scene).map_err(|e| e.to_string())?;
-        let mapped = map(scene, &cfg).map_err(|e| e.to_string())?;
+        let user_input = scene.file.dem.liggghts_input.clone();
+        let mapped = match &user_input {
+            Some(path) => map_user(scene, &cfg, path).map_err(|e| e.to_string())?,
+            None => map(scene, &cfg).map_err(|e| e.to_string())?,
+        };
         // The initial fill exactly as the built-in engine places it.
         let initial = if cfg.initial.is_some() {
             let mut native_cfg = cfg.clone();
@@ -111,6 +117,14 @@ impl Liggghts {
             &cfg as *const _
         ));
         std::fs::create_dir_all(&workdir).map_err(|e| format!("{}: {e}", workdir.display()))?;
+        if user_input.is_some() {
+            // A user's input is not ours to vouch for, and LIGGGHTS ends the process on any
+            // input error: try it first in a child process and report its error instead.
+            if let Err(e) = preflight(&workdir, &mapped.commands) {
+                let _ = std::fs::remove_dir_all(&workdir);
+                return Err(format!("field `dem.liggghts_input`: {e}"));
+            }
+        }
         let log = CString::new(workdir.join("log.liggghts").display().to_string())
             .map_err(|e| e.to_string())?;
         let screen = CString::new(workdir.join("screen.liggghts").display().to_string())
@@ -128,6 +142,7 @@ impl Liggghts {
             time: 0.0,
             steps: 0,
             needs_setup: true,
+            feeds: false,
             version: String::new(),
             workdir,
             flow: PfDemFlow::default(),
@@ -164,7 +179,8 @@ impl Liggghts {
             .unwrap_or_else(|| "unknown version (no banner in LIGGGHTS's output)".into());
         // LIGGGHTS refuses to set up a granular run before it knows a grain type: with
         // no grains and no inlet, setup waits for the first inserted grain.
-        if !me.ids.is_empty() || me.cfg.inlet.is_some() {
+        me.feeds = me.cfg.inlet.is_some() || user_input.is_some();
+        if !me.ids.is_empty() || me.feeds {
             me.command("run 0")?;
             me.needs_setup = false;
         }
@@ -260,7 +276,7 @@ impl Liggghts {
         if steps == 0 {
             return Ok(());
         }
-        if self.ids.is_empty() && self.cfg.inlet.is_none() {
+        if self.ids.is_empty() && !self.feeds {
             // Nothing to integrate and nothing will arrive: LIGGGHTS would refuse to run.
             self.steps += steps;
             self.time = self.steps as f64 * self.cfg.dt;
@@ -442,6 +458,45 @@ impl Liggghts {
         }
         Ok(out)
     }
+}
+
+/// Run the input with `run 0` in the `liggghts` executable, in a child process; its
+/// `ERROR:` line when it fails.
+fn preflight(dir: &std::path::Path, commands: &[String]) -> Result<(), String> {
+    let input = dir.join("preflight.in");
+    let mut text = commands.join("\n");
+    text.push_str("\nrun 0\n");
+    std::fs::write(&input, text).map_err(|e| format!("{}: {e}", input.display()))?;
+    let screen = dir.join("preflight.screen");
+    let out = std::process::Command::new("liggghts")
+        .arg("-in")
+        .arg(&input)
+        .arg("-log")
+        .arg(dir.join("preflight.log"))
+        .arg("-screen")
+        .arg(&screen)
+        .arg("-echo")
+        .arg("none")
+        .output()
+        .map_err(|e| {
+            format!(
+                "cannot start the `liggghts` executable to check the input in a child process \
+                 ({e}); install it: bash scripts/setup-system.sh"
+            )
+        })?;
+    if out.status.success() {
+        return Ok(());
+    }
+    let said = std::fs::read_to_string(&screen).unwrap_or_default();
+    let error = said
+        .lines()
+        .find(|l| l.contains("ERROR"))
+        .unwrap_or("LIGGGHTS stopped without an ERROR line");
+    Err(format!(
+        "LIGGGHTS refuses the input (checked in a child process, exit {}): {}",
+        out.status.code().unwrap_or(-1),
+        error.trim()
+    ))
 }
 
 impl Drop for Liggghts {

@@ -277,17 +277,9 @@ pub fn map(scene: &Scene, cfg: &DemConfig) -> Result<Mapped, Refusal> {
             "an inlet needs a [tube] in the LIGGGHTS backend",
         ));
     }
-    // The fluid force: one per-atom vector LIGGGHTS integrates through fix addforce.
-    push("fix pf_extf all property/atom extf vector yes no no 0. 0. 0.".into());
-    for (k, x) in AXES.iter().enumerate() {
-        push(format!("variable pf_f{x} atom f_pf_extf[{}]", k + 1));
-    }
-    push("fix pf_fluid all addforce v_pf_fx v_pf_fy v_pf_fz".into());
     push("fix pf_integrate all nve/sphere".into());
-    // Grains past an open end are removed by plugflow between runs; any that leave the
-    // box within a run must not stop LIGGGHTS.
-    push("thermo_modify lost ignore norm no".into());
-    push("thermo 100000000".into());
+    push_fluid_force(&mut c);
+    c.push("thermo 100000000".into());
     Ok(Mapped {
         commands: c,
         walls,
@@ -297,4 +289,144 @@ pub fn map(scene: &Scene, cfg: &DemConfig) -> Result<Mapped, Refusal> {
         outlet,
         inlet_end_open,
     })
+}
+
+/// Commands of a user's input that plugflow drops: it drives the runs itself, and its
+/// own fixes replace CFDEMcoupling's.
+fn dropped(words: &[&str]) -> bool {
+    matches!(words.first(), Some(&"run") | Some(&"write_restart"))
+        || (words.first() == Some(&"fix")
+            && words.get(3).is_some_and(|s| s.starts_with("couple/cfd")))
+}
+
+/// Commands plugflow cannot follow in a user's input.
+const REFUSED: [&str; 8] = [
+    "include", "shell", "quit", "clear", "jump", "label", "next", "if",
+];
+
+/// A user's own LIGGGHTS input (CFDEMcoupling style) with plugflow's coupling fixes.
+pub fn map_user(scene: &Scene, cfg: &DemConfig, path: &str) -> Result<Mapped, Refusal> {
+    let field = "dem.liggghts_input";
+    let text = std::fs::read_to_string(path)
+        .map_err(|e| refuse(field, format!("cannot read `{path}`: {e}")))?;
+    let mut lines: Vec<(usize, String)> = Vec::new();
+    let mut pending = String::new();
+    for (k, raw) in text.lines().enumerate() {
+        let code = raw.split('#').next().unwrap_or("").trim_end();
+        if let Some(head) = code.strip_suffix('&') {
+            pending.push_str(head);
+            pending.push(' ');
+            continue;
+        }
+        pending.push_str(code);
+        let line = std::mem::take(&mut pending).trim().to_string();
+        if !line.is_empty() {
+            lines.push((k + 1, line));
+        }
+    }
+    let mut c = Vec::new();
+    let (mut style, mut integrator, mut timestep, mut coupled) = (false, false, None, false);
+    for (n, line) in &lines {
+        let w: Vec<&str> = line.split_whitespace().collect();
+        if REFUSED.contains(&w[0]) {
+            return Err(refuse(
+                field,
+                format!(
+                    "line {n}: `{}` is not supported in a coupled input (plugflow feeds the \
+                     commands one by one); inline or remove it",
+                    w[0]
+                ),
+            ));
+        }
+        if line.contains("${") || w.iter().any(|x| x.starts_with("$")) {
+            return Err(refuse(
+                field,
+                format!("line {n}: variable substitution (`$`) is not supported; write the values"),
+            ));
+        }
+        if w[0] == "atom_style" {
+            style = matches!(w.get(1), Some(&"granular") | Some(&"sphere"));
+            if !style {
+                return Err(refuse(
+                    field,
+                    format!(
+                        "line {n}: atom_style must be `granular` (spheres with radius and mass)"
+                    ),
+                ));
+            }
+        }
+        if w[0] == "fix" && w.get(3).is_some_and(|s| s.starts_with("nve/sphere")) {
+            integrator = true;
+        }
+        if w[0] == "fix" && w.get(3).is_some_and(|s| s.starts_with("couple/cfd")) {
+            coupled = true;
+        }
+        if w[0] == "timestep" {
+            timestep = w.get(1).and_then(|t| t.parse::<f64>().ok());
+        }
+        if w[0] == "fix" && w.get(1) == Some(&"pf_extf") {
+            return Err(refuse(
+                field,
+                format!("line {n}: fix ids `pf_*` are plugflow's own"),
+            ));
+        }
+        if !dropped(&w) {
+            c.push(line.clone());
+        }
+    }
+    if !style {
+        return Err(refuse(
+            field,
+            "no `atom_style granular`: plugflow couples spheres",
+        ));
+    }
+    if !integrator {
+        return Err(refuse(
+            field,
+            "no `fix … nve/sphere`: the grains must be integrated by LIGGGHTS",
+        ));
+    }
+    let dt = timestep.ok_or_else(|| refuse(field, "no `timestep`"))?;
+    if (dt - cfg.dt).abs() > 1e-9 * cfg.dt {
+        return Err(refuse(
+            "dem.dt",
+            format!(
+                "{:e} s differs from the input's `timestep {dt:e}`: the coupling counts steps of \
+                 the scene's dt; set `[dem] dt = \"{dt:e} s\"`",
+                cfg.dt
+            ),
+        ));
+    }
+    let _ = coupled; // with or without CFDEM's coupling fixes: both are accepted
+    push_fluid_force(&mut c);
+    let r = cfg.radius_min;
+    let rho = cfg.density;
+    let outlet = cfg.tube.filter(|t| t.outlet_open).and_then(|t| {
+        axis_index(t.axis).map(|(a, sign)| Outlet {
+            axis: a,
+            sign,
+            position: t.origin[a] + sign * t.length,
+        })
+    });
+    let _ = scene;
+    Ok(Mapped {
+        commands: c,
+        walls: Vec::new(),
+        grain_mass: rho * 4.0 / 3.0 * std::f64::consts::PI * r * r * r,
+        grain_radius: r,
+        grain_density: rho,
+        outlet,
+        inlet_end_open: None,
+    })
+}
+
+/// The fluid force: one per-atom vector LIGGGHTS integrates through fix addforce; grains
+/// leaving the box within a run must not stop LIGGGHTS.
+fn push_fluid_force(c: &mut Vec<String>) {
+    c.push("fix pf_extf all property/atom extf vector yes no no 0. 0. 0.".into());
+    for (k, x) in AXES.iter().enumerate() {
+        c.push(format!("variable pf_f{x} atom f_pf_extf[{}]", k + 1));
+    }
+    c.push("fix pf_fluid all addforce v_pf_fx v_pf_fy v_pf_fz".into());
+    c.push("thermo_modify lost ignore norm no".into());
 }
