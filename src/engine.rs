@@ -4,6 +4,7 @@
 use std::path::PathBuf;
 
 use plugflow_coupling::abi::AbiBackend;
+use plugflow_coupling::isolated::IsolatedBackend;
 use plugflow_coupling::DemBackend;
 
 use crate::dem::{DemConfig, NativeDem};
@@ -54,6 +55,31 @@ fn library(scene: &Scene) -> Result<PathBuf, SceneError> {
 pub fn build_backend(scene: &Scene, cfg: &DemConfig) -> Result<Box<dyn DemBackend>, SceneError> {
     match scene.file.dem.engine.as_str() {
         "native" => Ok(Box::new(NativeDem::new(cfg.clone())?)),
+        _ if scene.file.dem.isolate => {
+            let lib = library(scene)?;
+            let exe = std::env::current_exe().map_err(|e| {
+                SceneError::field("dem.isolate", format!("cannot locate the executable: {e}"))
+            })?;
+            let dir = exe.parent().map(|p| p.to_path_buf()).unwrap_or_default();
+            let host = [
+                dir.join("plugflow-dem-host"),
+                dir.join("../plugflow-dem-host"),
+            ]
+            .into_iter()
+            .find(|p| p.exists())
+            .ok_or_else(|| {
+                SceneError::field(
+                    "dem.isolate",
+                    format!(
+                        "plugflow-dem-host not found next to {}: cargo build --release",
+                        exe.display()
+                    ),
+                )
+            })?;
+            let engine = IsolatedBackend::spawn(&host, &lib, &scene.to_json())
+                .map_err(|e| SceneError::field("dem.engine", e.to_string()))?;
+            Ok(Box::new(engine))
+        }
         _ => {
             let lib = library(scene)?;
             let engine = AbiBackend::load(&lib, &scene.to_json())

@@ -466,3 +466,54 @@ fn f_user_liggghts_input() {
     );
     std::fs::remove_dir_all(&dir).ok();
 }
+
+/// `dem.isolate = true`: LIGGGHTS runs in a child process. When that process dies (here
+/// killed; in practice LIGGGHTS's exit(1) on an error), the run stops with the engine's
+/// death as its error, writes its summary as failed and keeps run.h5 readable.
+#[test]
+fn g_isolated_engine_death_is_an_error_not_a_crash() {
+    let _g = SERIAL.lock().unwrap_or_else(|p| p.into_inner());
+    shim();
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let out = std::env::temp_dir().join(format!("plugflow-lg-iso-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&out);
+    let mut run = std::process::Command::new(env!("CARGO_BIN_EXE_plugflow"))
+        .args([
+            "run",
+            root.join("cases/vertical_plug.toml").to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+            "--set",
+            "dem.engine=liggghts",
+            "--set",
+            "dem.isolate=true",
+            "--quiet",
+        ])
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    // Let it run a little, then kill the engine's process (not plugflow's).
+    std::thread::sleep(std::time::Duration::from_secs(3));
+    let host = std::process::Command::new("pgrep")
+        .args(["-P", &run.id().to_string(), "-f", "plugflow-dem-host"])
+        .output()
+        .unwrap();
+    let pid = String::from_utf8_lossy(&host.stdout).trim().to_string();
+    assert!(!pid.is_empty(), "no engine host process under plugflow");
+    std::process::Command::new("kill")
+        .args(["-9", &pid])
+        .status()
+        .unwrap();
+    let o = run.wait_with_output().unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(1), "{err}");
+    assert!(err.contains("engine process died"), "{err}");
+    let s: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
+    assert!(s["status"].as_str().unwrap().starts_with("failed"), "{s}");
+    assert!(s["simulated_time_s"].as_f64().unwrap() > 0.0);
+    let f = hdf5::File::open(out.join("run.h5")).unwrap();
+    let t: Vec<f64> = f.dataset("time").unwrap().read_raw().unwrap();
+    assert!(!t.is_empty());
+    std::fs::remove_dir_all(&out).ok();
+}

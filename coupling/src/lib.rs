@@ -14,6 +14,7 @@ pub mod drag;
 pub mod driver;
 pub mod gas;
 pub mod grid;
+pub mod isolated;
 pub mod timing;
 
 pub use backend::{

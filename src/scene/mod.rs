@@ -350,6 +350,13 @@ fn check(f: &SceneFile) -> Result<(), SceneError> {
              a second stream)",
         ));
     }
+    if d.isolate && d.engine == "native" {
+        return Err(field_err(
+            "dem.isolate",
+            "the built-in engine runs in plugflow's process; isolation is for ABI engines \
+             (`native_abi`, `liggghts`)",
+        ));
+    }
     if d.library.is_some() && d.engine == "native" {
         return Err(field_err(
             "dem.library",

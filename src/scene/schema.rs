@@ -285,6 +285,11 @@ pub struct DemSpec {
     /// CFDEMcoupling: plugflow drops its `run` lines and `couple/cfd` fixes and adds only
     /// the fluid-force fixes it needs. Relative to the scene file's folder.
     pub liggghts_input: Option<String>,
+    /// Run an ABI engine in a child process (`plugflow-dem-host`): an engine that ends its
+    /// process (LIGGGHTS on an error) ends only the child, and the run stops with the
+    /// engine's last words and keeps what it computed. Default false.
+    #[serde(default)]
+    pub isolate: bool,
     /// Time step, s. Default: contact time / `dt_fraction`. Refused above the stability limit.
     pub dt: Option<Q<Time>>,
     /// Steps per contact time when `dt` is derived. Default 50.
@@ -310,6 +315,7 @@ impl Default for DemSpec {
             engine: default_engine(),
             library: None,
             liggghts_input: None,
+            isolate: false,
             dt: None,
             dt_fraction: default_dt_fraction(),
             rotation: true,
