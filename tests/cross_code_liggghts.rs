@@ -477,7 +477,7 @@ fn g_isolated_engine_death_is_an_error_not_a_crash() {
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));
     let out = std::env::temp_dir().join(format!("plugflow-lg-iso-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&out);
-    let mut run = std::process::Command::new(env!("CARGO_BIN_EXE_plugflow"))
+    let run = std::process::Command::new(env!("CARGO_BIN_EXE_plugflow"))
         .args([
             "run",
             root.join("cases/vertical_plug.toml").to_str().unwrap(),
