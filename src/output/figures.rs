@@ -215,37 +215,58 @@ pub fn plug_statistics(
         curves: vec![Curve::line("", rate)],
     });
     type Pick = fn(&PlugObservation) -> Option<Real>;
-    let stats: [(&str, &str, Pick); 3] = [
-        ("minimum porosity", "porosity", |p| Some(p.min_porosity)),
-        ("plug velocity (tracked)", "m/s", |p| p.velocity),
-        ("plug length", "m", |p| Some(p.length)),
+    /// Panel title, unit, and its curves (label, value per plug).
+    type Stat<'a> = (&'a str, &'a str, &'a [(&'a str, Pick)]);
+    let stats: [Stat; 3] = [
+        (
+            "minimum porosity",
+            "porosity",
+            &[("median, quartiles", |p| Some(p.min_porosity))],
+        ),
+        (
+            "plug velocity",
+            "m/s",
+            &[
+                ("max granular (seed fig. 11)", |p| Some(p.max_velocity)),
+                ("tracked plug", |p| p.velocity),
+            ],
+        ),
+        (
+            "plug length",
+            "m",
+            &[("median, quartiles", |p| Some(p.length))],
+        ),
     ];
-    for (title, unit, pick) in stats {
-        let mut med = Vec::new();
-        let mut band = Vec::new();
-        for b in 0..nbins {
-            let (lo, hi) = (b as Real * bin, (b + 1) as Real * bin);
-            let v: Vec<Real> = plugs
-                .iter()
-                .filter(|p| p.centre >= lo && p.centre < hi)
-                .filter_map(pick)
-                .collect();
-            if let Some((q1, q2, q3)) = quartiles(v) {
-                let z = 0.5 * (lo + hi);
-                med.push((z, q2));
-                band.push((z, q1, q3));
+    for (title, unit, picks) in stats {
+        let mut curves = Vec::new();
+        for (label, pick) in picks {
+            let mut med = Vec::new();
+            let mut band = Vec::new();
+            for b in 0..nbins {
+                let (lo, hi) = (b as Real * bin, (b + 1) as Real * bin);
+                let v: Vec<Real> = plugs
+                    .iter()
+                    .filter(|p| p.centre >= lo && p.centre < hi)
+                    .filter_map(pick)
+                    .collect();
+                if let Some((q1, q2, q3)) = quartiles(v) {
+                    let z = 0.5 * (lo + hi);
+                    med.push((z, q2));
+                    band.push((z, q1, q3));
+                }
             }
+            curves.push(Curve {
+                label: (*label).into(),
+                points: med,
+                markers: false,
+                band,
+            });
         }
         panels_out.push(Panel {
             title: title.into(),
             x_label: "height z (m)".into(),
             y_label: unit.into(),
-            curves: vec![Curve {
-                label: "median, quartiles".into(),
-                points: med,
-                markers: false,
-                band,
-            }],
+            curves,
         });
     }
     panels(path, &panels_out, 1600, 420)
