@@ -9,8 +9,10 @@ use plugflow_coupling::{BackendError, DemBackend, ParticleView};
 use serde_json::{json, Map, Value};
 
 use crate::analysis::plugs::{median, PlugObservation, PlugTracker, Slicer};
+use crate::analysis::profiles::{local_minima, PlugWindow, Profiles, TubeFrame};
 use crate::analysis::targets;
 use crate::cosim::{check_json, coupling_from_scene};
+use crate::dem::config::LawSet;
 use crate::dem::{DemConfig, NativeDem};
 use crate::engine::build_backend;
 use crate::output::figures::{self, Curve, Panel};
@@ -139,6 +141,41 @@ pub fn run(scene: &Scene, opts: &RunOptions) -> Result<RunOutcome, RunError> {
             4.0 / 3.0 * std::f64::consts::PI * r * r * r,
         )
     });
+    let mut profiles = cfg.tube.map(|t| {
+        // "Up" across the tube: against gravity's part across the axis (any cross
+        // direction for a vertical tube, where the layer profile means nothing special).
+        let g = cfg.gravity;
+        let ga: Real = (0..3).map(|k| g[k] * t.axis[k]).sum();
+        let cross = [
+            g[0] - ga * t.axis[0],
+            g[1] - ga * t.axis[1],
+            g[2] - ga * t.axis[2],
+        ];
+        let norm = (cross[0] * cross[0] + cross[1] * cross[1] + cross[2] * cross[2]).sqrt();
+        let up = if norm > 1e-9 {
+            [-cross[0] / norm, -cross[1] / norm, -cross[2] / norm]
+        } else {
+            plugflow_coupling::grid::perpendicular_basis(t.axis).1
+        };
+        // The wall stress estimate needs a linear spring (Hooke); NaN otherwise.
+        let wall_kn = match &cfg.laws {
+            LawSet::HookeHistory(l) => l.pw_normal.kn,
+            LawSet::HookeCoulomb(l) => l.pw_normal.kn,
+            _ => Real::NAN,
+        };
+        Profiles::new(
+            TubeFrame {
+                origin: t.origin,
+                axis: t.axis,
+                up,
+                radius: t.radius,
+                length: t.length,
+            },
+            cfg.radius_min + cfg.radius_max,
+            wall_kn,
+            PlugWindow::default(),
+        )
+    });
     let mut porosity_rows: Vec<Vec<Real>> = Vec::new();
     let mut dp_trace: Vec<(Real, Real)> = Vec::new();
     let snapshot_spec = f.output.snapshots.as_ref();
@@ -222,6 +259,25 @@ pub fn run(scene: &Scene, opts: &RunOptions) -> Result<RunOutcome, RunError> {
             in_tube_n += 1;
             if let (Some(tr), Some(fr)) = (tracker.as_mut(), &frame) {
                 tr.push(fr);
+            }
+            if let (Some(pr), Some(tr), Some(t)) = (profiles.as_mut(), tracker.as_ref(), cfg.tube) {
+                let p = dem.particles();
+                // The fluid forces of the exchange that ended this interval, in this order.
+                let axial: Option<Vec<Real>> = gas.as_ref().and_then(|g| {
+                    let f = g.fluid_forces();
+                    (f.len() == p.len()).then(|| {
+                        f.iter()
+                            .map(|f| (0..3).map(|k| f[k] * t.axis[k]).sum())
+                            .collect()
+                    })
+                });
+                pr.add_frame(
+                    p.position,
+                    p.velocity,
+                    p.radius,
+                    axial.as_deref(),
+                    &tr.observations[plugs_before..],
+                );
             }
         }
         let sample = Sample {
@@ -396,6 +452,48 @@ pub fn run(scene: &Scene, opts: &RunOptions) -> Result<RunOutcome, RunError> {
                 (dem.time() - settle).max(1e-12),
                 0.025,
             )?;
+        }
+    }
+    if let Some(pr) = &profiles {
+        let res = pr.result();
+        let mut rings_min: Vec<Real> = local_minima(&res.ring_porosity)
+            .into_iter()
+            .map(|k| res.ring_r_over_d[k])
+            .collect();
+        if res.ring_porosity.len() > 1 && res.ring_porosity[0] < res.ring_porosity[1] {
+            rings_min.insert(0, res.ring_r_over_d[0]);
+        }
+        summary
+            .as_object_mut()
+            .expect("summary is an object")
+            .insert(
+                "profiles".into(),
+                json!({
+                    "plugs_used": res.plugs_used,
+                    "selection": {
+                        "length_m": [pr.window.length.0, pr.window.length.1],
+                        "velocity_m_s": [pr.window.velocity.0, pr.window.velocity.1],
+                        "centre_fraction_of_tube": [pr.window.centre.0, pr.window.centre.1],
+                    },
+                    "xi_m": res.xi,
+                    "porosity": res.porosity,
+                    "granular_velocity_m_s": res.velocity,
+                    "granular_temperature_m2_s2": res.temperature,
+                    "wall_normal_stress_pa": res.wall_stress,
+                    "drag_n_m3": res.drag,
+                    "ring_r_over_d": res.ring_r_over_d,
+                    "ring_porosity": res.ring_porosity,
+                    "ring_porosity_minima_r_over_d": rings_min,
+                    "layer_height_over_d": res.layer_h_over_d,
+                    "layer_porosity_in_plugs": res.layer_porosity_plug,
+                    "layer_porosity_between_plugs": res.layer_porosity_gap,
+                }),
+            );
+        if res.plugs_used > 0 {
+            figures::profiles(&out_dir.join("profiles.png"), &res)?;
+        }
+        for o in outputs.iter_mut() {
+            o.finish(Some(&res))?;
         }
     }
     if !f.output.reproduces.is_empty() {

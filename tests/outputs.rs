@@ -138,6 +138,19 @@ fn run_h5_holds_the_run_and_vtk_matches_it() {
     }
     assert!(out.join("plug_statistics.png").exists() || summary["plugs_observed_mid_tube"] == 0);
     assert!(out.join("pressure_drop.png").exists());
+    // Profiles are written at the end, with the same numbers as the summary's.
+    let rings: Vec<f64> = f
+        .dataset("profiles/ring_porosity")
+        .unwrap()
+        .read_raw()
+        .unwrap();
+    let listed: Vec<f64> = summary["profiles"]["ring_porosity"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|v| v.as_f64().unwrap_or(f64::NAN))
+        .collect();
+    assert_eq!(rings.len(), listed.len());
 
     // From Python, as users read it. test-all.sh installs h5py and sets
     // PLUGFLOW_REQUIRE_H5PY=1; elsewhere the check runs only where h5py imports.

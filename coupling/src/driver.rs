@@ -215,6 +215,12 @@ impl Coupler {
         Ok(())
     }
 
+    /// The fluid force on every grain from the last exchange, N (in the particle order of
+    /// that exchange).
+    pub fn fluid_forces(&self) -> &[Vec3] {
+        &self.forces
+    }
+
     /// Pressure drop per length, Pa/m.
     pub fn pressure_drop(&self) -> Real {
         self.gas.pressure_drop_per_length()

@@ -2,4 +2,5 @@
 //! with the papers' numbers (shared/TARGETS.md).
 
 pub mod plugs;
+pub mod profiles;
 pub mod targets;

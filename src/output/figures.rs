@@ -271,3 +271,72 @@ pub fn plug_statistics(
     }
     panels(path, &panels_out, 1600, 420)
 }
+
+/// Profiles averaged over plugs: along the tube around the plug centre, radially in the
+/// plug, and across the tube (inside plugs and between them).
+pub fn profiles(
+    path: &Path,
+    r: &crate::analysis::profiles::ProfileResult,
+) -> Result<(), OutputError> {
+    let xy = |x: &[Real], y: &[Real]| -> Vec<(Real, Real)> {
+        x.iter().zip(y).map(|(a, b)| (*a, *b)).collect()
+    };
+    let xi_cm: Vec<Real> = r.xi.iter().map(|x| x * 100.0).collect();
+    let panels_out = [
+        Panel {
+            title: format!("along the plug ({} plug frames)", r.plugs_used),
+            x_label: "distance from plug centre (cm)".into(),
+            y_label: "porosity".into(),
+            curves: vec![Curve::line("porosity", xy(&xi_cm, &r.porosity))],
+        },
+        Panel {
+            title: "granular velocity and temperature".into(),
+            x_label: "distance from plug centre (cm)".into(),
+            y_label: "m/s, (m/s)² × 100".into(),
+            curves: vec![
+                Curve::line("axial velocity", xy(&xi_cm, &r.velocity)),
+                Curve::line(
+                    "temperature × 100",
+                    xy(
+                        &xi_cm,
+                        &r.temperature.iter().map(|t| t * 100.0).collect::<Vec<_>>(),
+                    ),
+                ),
+            ],
+        },
+        Panel {
+            title: "wall normal stress, drag".into(),
+            x_label: "distance from plug centre (cm)".into(),
+            y_label: "Pa, N/m³ / 100".into(),
+            curves: vec![
+                Curve::line("wall normal stress", xy(&xi_cm, &r.wall_stress)),
+                Curve::line(
+                    "axial drag / 100",
+                    xy(
+                        &xi_cm,
+                        &r.drag.iter().map(|d| d / 100.0).collect::<Vec<_>>(),
+                    ),
+                ),
+            ],
+        },
+        Panel {
+            title: "radial (section 1.5 d)".into(),
+            x_label: "r / d".into(),
+            y_label: "porosity".into(),
+            curves: vec![Curve::line("", xy(&r.ring_r_over_d, &r.ring_porosity))],
+        },
+        Panel {
+            title: "across the tube".into(),
+            x_label: "height / d".into(),
+            y_label: "porosity".into(),
+            curves: vec![
+                Curve::line("in plugs", xy(&r.layer_h_over_d, &r.layer_porosity_plug)),
+                Curve::line(
+                    "between plugs",
+                    xy(&r.layer_h_over_d, &r.layer_porosity_gap),
+                ),
+            ],
+        },
+    ];
+    panels(path, &panels_out, 2000, 420)
+}

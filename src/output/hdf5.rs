@@ -16,6 +16,9 @@
 //! /plugs/{time,track,centre,length,min_porosity,max_granular_velocity,grains,velocity}
 //!                        (p)              one row per plug per frame (velocity NaN until
 //!                                         the plug has been seen twice)
+//! /profiles/{xi, porosity, granular_velocity, granular_temperature, wall_normal_stress,
+//!           drag, ring_r_over_d, ring_porosity, layer_height_over_d,
+//!           layer_porosity_in_plugs, layer_porosity_between_plugs}   written at the end
 //! /particles/NNNNNN      attrs time, step; id (n), position (n,3), velocity (n,3),
 //!                        angular_velocity (n,3), radius (n)   [only when the scene asks]
 //! ```
@@ -28,6 +31,7 @@ use ndarray::{s, ArrayView1, ArrayView2};
 use plugflow_coupling::ParticleView;
 
 use super::{OutputError, RunOutput, Sample};
+use crate::analysis::profiles::ProfileResult;
 use crate::Real;
 
 /// Metadata written as root attributes.
@@ -85,7 +89,12 @@ impl Hdf5Output {
     pub fn create(path: &Path, meta: &RunMeta) -> Result<Self, OutputError> {
         let name = path.display().to_string();
         let err = |e: hdf5::Error| OutputError::new(&name, e);
-        let file = File::create(path).map_err(err)?;
+        // Strong close: dropping the writer closes the file and every object in it at
+        // once, so the file is free for readers the moment the run ends.
+        let file = File::with_options()
+            .with_fapl(|p| p.fclose_degree(hdf5::file::FileCloseDegree::Strong))
+            .create(path)
+            .map_err(err)?;
         text_attr(&file, "scene", meta.scene_text).map_err(err)?;
         text_attr(&file, "plugflow_version", env!("CARGO_PKG_VERSION")).map_err(err)?;
         text_attr(&file, "engine", meta.engine).map_err(err)?;
@@ -217,7 +226,39 @@ impl Hdf5Output {
     }
 }
 
+impl Hdf5Output {
+    fn write_profiles(&mut self, r: &ProfileResult) -> hdf5::Result<()> {
+        let g = self.file.create_group("profiles")?;
+        g.new_attr::<u64>()
+            .create("plugs_used")?
+            .write_scalar(&r.plugs_used)?;
+        for (name, v, unit) in [
+            ("xi", &r.xi, "m"),
+            ("porosity", &r.porosity, "1"),
+            ("granular_velocity", &r.velocity, "m/s"),
+            ("granular_temperature", &r.temperature, "m^2/s^2"),
+            ("wall_normal_stress", &r.wall_stress, "Pa"),
+            ("drag", &r.drag, "N/m^3"),
+            ("ring_r_over_d", &r.ring_r_over_d, "1"),
+            ("ring_porosity", &r.ring_porosity, "1"),
+            ("layer_height_over_d", &r.layer_h_over_d, "1"),
+            ("layer_porosity_in_plugs", &r.layer_porosity_plug, "1"),
+            ("layer_porosity_between_plugs", &r.layer_porosity_gap, "1"),
+        ] {
+            fixed(&g, name, v, unit)?;
+        }
+        self.file.flush()
+    }
+}
+
 impl RunOutput for Hdf5Output {
+    fn finish(&mut self, profiles: Option<&ProfileResult>) -> Result<(), OutputError> {
+        match profiles {
+            Some(p) => self.write_profiles(p).map_err(|e| self.err(e)),
+            None => Ok(()),
+        }
+    }
+
     fn sample(&mut self, sample: &Sample) -> Result<(), OutputError> {
         self.append_sample(sample).map_err(|e| self.err(e))
     }

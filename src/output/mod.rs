@@ -13,6 +13,7 @@ pub mod vtk;
 use plugflow_coupling::ParticleView;
 
 use crate::analysis::plugs::{PlugObservation, SliceFrame};
+use crate::analysis::profiles::ProfileResult;
 use crate::Real;
 
 /// A failure to write an output file.
@@ -64,4 +65,8 @@ pub trait RunOutput {
         step: u64,
         particles: &ParticleView,
     ) -> Result<(), OutputError>;
+    /// The run is over: record what is only known at the end (profiles).
+    fn finish(&mut self, _profiles: Option<&ProfileResult>) -> Result<(), OutputError> {
+        Ok(())
+    }
 }
