@@ -9,6 +9,7 @@
 
 pub mod analysis;
 pub mod cosim;
+pub mod crosscheck;
 pub mod dem;
 pub mod engine;
 pub mod gas;

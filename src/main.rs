@@ -1,4 +1,4 @@
-//! The `plugflow` command line: `run`, `sweep`, `validate`.
+//! The `plugflow` command line: `run`, `sweep`, `crosscheck`, `validate`.
 
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -7,7 +7,7 @@ use clap::{Parser, Subcommand};
 use plugflow::dem::DemConfig;
 use plugflow::run::{run, RunError, RunOptions};
 use plugflow::scene::Scene;
-use plugflow::sweep;
+use plugflow::{crosscheck, sweep};
 
 #[derive(Parser)]
 #[command(
@@ -64,6 +64,24 @@ enum Command {
         #[arg(long = "set", value_name = "PATH=VALUE")]
         set: Vec<String>,
     },
+    /// Run a scene on several DEM engines and write a side-by-side report (crosscheck.md,
+    /// crosscheck.png) into the output folder (default results/<scene name>_crosscheck/).
+    Crosscheck {
+        /// Scene file (TOML).
+        scene: PathBuf,
+        /// Engines, comma-separated: native, native_abi, liggghts.
+        #[arg(long, value_delimiter = ',', default_value = "native,liggghts")]
+        engines: Vec<String>,
+        /// Output folder.
+        #[arg(long)]
+        out: Option<PathBuf>,
+        /// Simulated time, s.
+        #[arg(long)]
+        duration: Option<f64>,
+        /// Override a scene field on every engine (repeatable).
+        #[arg(long = "set", value_name = "PATH=VALUE")]
+        set: Vec<String>,
+    },
     /// Check a scene without running it; exit code 2 and the field at fault when wrong.
     Validate {
         /// Scene file (TOML).
@@ -77,6 +95,60 @@ enum Command {
 fn main() -> ExitCode {
     let cli = Cli::parse();
     match cli.command {
+        Command::Crosscheck {
+            scene,
+            engines,
+            out,
+            duration,
+            set,
+        } => {
+            if let Some(d) = duration {
+                if !(d.is_finite() && d > 0.0) {
+                    eprintln!("error: --duration must be a positive number of seconds");
+                    return ExitCode::from(2);
+                }
+            }
+            let base = match Scene::load(&scene, &set) {
+                Ok(s) => s,
+                Err(e) => {
+                    eprintln!("error: {e}");
+                    return ExitCode::from(2);
+                }
+            };
+            let out = out.unwrap_or_else(|| {
+                PathBuf::from("results").join(format!("{}_crosscheck", base.file.name))
+            });
+            let exe = match std::env::current_exe() {
+                Ok(e) => e,
+                Err(e) => {
+                    eprintln!("error: cannot find the plugflow executable: {e}");
+                    return ExitCode::FAILURE;
+                }
+            };
+            match crosscheck::crosscheck(&exe, &scene, &engines, &set, duration, &out) {
+                Ok(s) => {
+                    let ok = s.iter().filter(|v| v["status"] == "completed").count();
+                    println!(
+                        "crosscheck: {ok} of {} engines completed; {}",
+                        s.len(),
+                        out.join("crosscheck.md").display()
+                    );
+                    if ok == s.len() {
+                        ExitCode::SUCCESS
+                    } else {
+                        ExitCode::FAILURE
+                    }
+                }
+                Err(e @ crosscheck::CrosscheckError::Scene { .. }) => {
+                    eprintln!("error: {e}");
+                    ExitCode::from(2)
+                }
+                Err(e) => {
+                    eprintln!("error: {e}");
+                    ExitCode::FAILURE
+                }
+            }
+        }
         Command::Sweep {
             scene,
             vary,

@@ -517,3 +517,59 @@ fn g_isolated_engine_death_is_an_error_not_a_crash() {
     assert!(!t.is_empty());
     std::fs::remove_dir_all(&out).ok();
 }
+
+/// `plugflow crosscheck` runs a scene on each engine and writes the side-by-side report;
+/// an engine this build does not know stops it before anything runs.
+#[test]
+fn h_crosscheck_report() {
+    let _g = SERIAL.lock().unwrap_or_else(|p| p.into_inner());
+    shim();
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let scene = root.join("cases/vertical_plug.toml");
+    let out = std::env::temp_dir().join(format!("plugflow-crosscheck-{}", std::process::id()));
+    let (code, text) = plugflow(&[
+        "crosscheck",
+        scene.to_str().unwrap(),
+        "--engines",
+        "native,liggghts",
+        "--duration",
+        "0.5",
+        "--set",
+        "output.settling_time=0.3 s",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert_eq!(code, 0, "{text}");
+    let md = std::fs::read_to_string(out.join("crosscheck.md")).unwrap();
+    assert!(
+        md.contains("| quantity | native | liggghts | spread |"),
+        "{md}"
+    );
+    assert!(md.contains("LIGGGHTS-PUBLIC"), "{md}");
+    // Grains in the tube after 0.5 s: both engines feed 2.49 kg/h (see test d: within 15 %).
+    let row = md
+        .lines()
+        .find(|l| l.starts_with("| grains in the tube"))
+        .unwrap();
+    let spread: f64 = row
+        .rsplit('|')
+        .nth(1)
+        .unwrap()
+        .trim()
+        .trim_end_matches(" %")
+        .parse()
+        .unwrap();
+    assert!(spread < 15.0, "{row}");
+    assert!(out.join("crosscheck.png").exists());
+    let (code, text) = plugflow(&[
+        "crosscheck",
+        scene.to_str().unwrap(),
+        "--engines",
+        "native,nosuchengine",
+        "--out",
+        out.join("bad").to_str().unwrap(),
+    ]);
+    assert_eq!(code, 2, "{text}");
+    assert!(text.contains("nosuchengine"), "{text}");
+    std::fs::remove_dir_all(&out).ok();
+}

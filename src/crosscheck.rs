@@ -1,0 +1,184 @@
+//! `plugflow crosscheck SCENE --engines native,liggghts`: the same scene on each engine (one
+//! `plugflow run` process each, one after the other so their wall times compare), then a
+//! side-by-side report: `crosscheck.md` (the summary numbers, the spread between engines,
+//! wall times) and `crosscheck.png`. What people validating DEM codes against each other
+//! run.
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+use serde_json::Value;
+
+use crate::output::figures::{self, Curve, Panel};
+use crate::scene::{Scene, SceneError};
+use crate::Real;
+
+/// What stops a crosscheck before it starts.
+#[derive(Debug, thiserror::Error)]
+pub enum CrosscheckError {
+    /// An engine cannot run the scene (unknown, library missing, scene refused).
+    #[error("engine `{engine}`: {source}")]
+    Scene { engine: String, source: SceneError },
+    /// Files.
+    #[error("crosscheck output `{path}`: {reason}")]
+    Io { path: String, reason: String },
+}
+
+/// Rows of the report: summary key, what, unit.
+const ROWS: [(&str, &str); 9] = [
+    ("pressure_drop_hpa_per_m", "pressure drop, hPa/m"),
+    ("particles_in_tube_mean", "grains in the tube (mean)"),
+    ("mass_outflow_kg_per_h", "outflow, kg/h"),
+    (
+        "plug_max_granular_velocity_m_s",
+        "plug velocity (max granular), m/s",
+    ),
+    ("plug_velocity_m_s", "plug velocity (tracked), m/s"),
+    ("plug_length_m", "plug length, m"),
+    ("plug_min_porosity", "minimum porosity in plugs"),
+    ("simulated_time_s", "simulated time, s"),
+    ("wall_time_s", "wall time, s"),
+];
+
+/// Run the scene on every engine; returns the summaries (Null for a run that wrote none).
+pub fn crosscheck(
+    exe: &Path,
+    scene_path: &Path,
+    engines: &[String],
+    set: &[String],
+    duration: Option<Real>,
+    out_dir: &Path,
+) -> Result<Vec<Value>, CrosscheckError> {
+    let io = |p: &Path, e: &dyn std::fmt::Display| CrosscheckError::Io {
+        path: p.display().to_string(),
+        reason: e.to_string(),
+    };
+    // Every engine must accept the scene before the first runs.
+    let mut runs = Vec::new();
+    for e in engines {
+        let mut s = set.to_vec();
+        s.push(format!("dem.engine={e}"));
+        Scene::load(scene_path, &s).map_err(|source| CrosscheckError::Scene {
+            engine: e.clone(),
+            source,
+        })?;
+        runs.push((e.clone(), s));
+    }
+    std::fs::create_dir_all(out_dir).map_err(|e| io(out_dir, &e))?;
+    let mut summaries = Vec::new();
+    for (engine, s) in &runs {
+        let dir: PathBuf = out_dir.join(engine);
+        let mut cmd = Command::new(exe);
+        cmd.arg("run")
+            .arg(scene_path)
+            .arg("--out")
+            .arg(&dir)
+            .arg("--quiet");
+        if let Some(d) = duration {
+            cmd.arg("--duration").arg(d.to_string());
+        }
+        for x in s {
+            cmd.arg("--set").arg(x);
+        }
+        eprintln!("crosscheck: running on {engine} ...");
+        let status = cmd.status().map_err(|e| io(exe, &e))?;
+        let summary: Value = std::fs::read_to_string(dir.join("summary.json"))
+            .ok()
+            .and_then(|t| serde_json::from_str(&t).ok())
+            .unwrap_or(Value::Null);
+        eprintln!("crosscheck: {engine}: exit {}", status.code().unwrap_or(-1));
+        summaries.push(summary);
+    }
+    write_report(out_dir, scene_path, engines, &summaries).map_err(|e| io(out_dir, &e))?;
+    Ok(summaries)
+}
+
+fn write_report(
+    dir: &Path,
+    scene_path: &Path,
+    engines: &[String],
+    s: &[Value],
+) -> Result<(), String> {
+    let mut md = format!(
+        "# Crosscheck of `{}`\n\n| quantity | {} | spread |\n| --- |{} --- |\n",
+        scene_path.display(),
+        engines.join(" | "),
+        " --- |".repeat(engines.len())
+    );
+    md.push_str(&format!(
+        "| engine version | {} | |\n| status | {} | |\n",
+        s.iter()
+            .map(|v| v["engine_version"].as_str().unwrap_or("—").to_string())
+            .collect::<Vec<_>>()
+            .join(" | "),
+        s.iter()
+            .map(|v| v["status"].as_str().unwrap_or("no summary").to_string())
+            .collect::<Vec<_>>()
+            .join(" | ")
+    ));
+    for (key, what) in ROWS {
+        let vals: Vec<Option<f64>> = s.iter().map(|v| v[key].as_f64()).collect();
+        let cells: Vec<String> = vals
+            .iter()
+            .map(|v| v.map_or("—".into(), |x| format!("{x:.4}")))
+            .collect();
+        let present: Vec<f64> = vals.iter().flatten().copied().collect();
+        // Spread: (max − min) / mean, the relative disagreement between engines.
+        let spread = if present.len() >= 2 {
+            let (lo, hi) = present
+                .iter()
+                .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), x| {
+                    (a.min(*x), b.max(*x))
+                });
+            let mean = present.iter().sum::<f64>() / present.len() as f64;
+            if mean.abs() > 0.0 {
+                format!("{:.1} %", 100.0 * (hi - lo) / mean.abs())
+            } else {
+                "—".into()
+            }
+        } else {
+            "—".into()
+        };
+        md.push_str(&format!("| {what} | {} | {spread} |\n", cells.join(" | ")));
+    }
+    std::fs::write(dir.join("crosscheck.md"), md).map_err(|e| e.to_string())?;
+    // Figure: each quantity normalised by the first engine's value.
+    let mut curves = Vec::new();
+    for (k, e) in engines.iter().enumerate() {
+        let pts: Vec<(Real, Real)> = ROWS
+            .iter()
+            .enumerate()
+            .filter_map(|(j, (key, _))| {
+                let base = s.first()?[*key].as_f64()?;
+                let v = s[k][*key].as_f64()?;
+                (base != 0.0).then_some((j as Real, v / base))
+            })
+            .collect();
+        curves.push(Curve {
+            label: e.clone(),
+            points: pts,
+            markers: true,
+            band: Vec::new(),
+        });
+    }
+    figures::panels(
+        &dir.join("crosscheck.png"),
+        &[Panel {
+            title: format!(
+                "relative to {}: {}",
+                engines.first().map_or("", |e| e.as_str()),
+                ROWS.iter()
+                    .enumerate()
+                    .map(|(j, (k, _))| format!("{j} {}", k.split('_').next().unwrap_or(k)))
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            ),
+            x_label: "quantity (row of crosscheck.md)".into(),
+            y_label: "value / first engine's".into(),
+            curves,
+        }],
+        1400,
+        480,
+    )
+    .map_err(|e| e.to_string())
+}
