@@ -99,17 +99,8 @@ fn main() {
 
     // 4. The bridge: each engine through the C ABI, advanced in coupling-sized chunks with
     // a fluid force set after each (as a coupled run does), against one uninterrupted
-    // advance. Hooke (the mapping the LIGGGHTS shim supports) on the same bed.
-    let text = std::fs::read_to_string(&scene_path).unwrap();
-    let hooke = text
-        .replace(
-            "normal = \"hertz\"",
-            "normal = \"hooke\"\ncontact_time = \"1e-4 s\"",
-        )
-        .replace("youngs_modulus = \"5e6 Pa\"\n", "")
-        .replace("poisson_ratio = 0.45\n", "")
-        .replace("dt = \"5e-6 s\"", "dt = \"2e-6 s\"");
-    let hooke_scene = Scene::parse(&hooke, &["initial.count=0".into()]).unwrap();
+    // advance, on the same bed and laws.
+    let bed_scene = Scene::load(&scene_path, &["initial.count=0".into()]).unwrap();
     let release = root.join("target/release");
     for (engine, lib, build) in [
         (
@@ -131,7 +122,7 @@ fn main() {
             );
             continue;
         }
-        let (single, chunked, exchanges) = bridge(&lib, &hooke_scene, &bed, steps / 2, 50);
+        let (single, chunked, exchanges) = bridge(&lib, &bed_scene, &bed, steps / 2, 50);
         println!(
             "{engine} through the ABI: {:.3e} particle-steps/s in one advance; \
              {:.3e} in {exchanges} exchanges of 50 steps; overhead {:.1} µs per exchange",

@@ -91,6 +91,8 @@ pub fn map(scene: &Scene, cfg: &DemConfig) -> Result<Mapped, Refusal> {
     let m = rho * 4.0 / 3.0 * std::f64::consts::PI * r * r * r;
     // Effective masses as the built-in engine uses them: m/2 for a pair, m against a wall.
     let (m_pp, m_pw) = (0.5 * m, m);
+    // Hertz: (E, ν, e_L grain–grain, e_L grain–wall) for LIGGGHTS's own `model hertz`.
+    let mut hertz: Option<(f64, f64, f64, f64)> = None;
     let (pp, pw, history) = match &cfg.laws {
         LawSet::HookeHistory(l) => (
             Pair {
@@ -132,11 +134,51 @@ pub fn map(scene: &Scene, cfg: &DemConfig) -> Result<Mapped, Refusal> {
                 false,
             )
         }
-        LawSet::HertzHistory(_) | LawSet::HertzCoulomb(_) => {
+        LawSet::HertzHistory(l) => {
+            // LIGGGHTS's `model hertz` damps with γ = −2√(5/6) β √(S_n m*), S_n = 2Y*√(Rδ):
+            // the Tsuji form of the built-in engine (γ = α √(2/3) √(S_n m*)) when
+            // β = −α/√5. β comes from LIGGGHTS's coefficientRestitution, so give it the
+            // e_L with that β: e_L = exp(β π / √(1 − β²)). k_n = 4/3 Y*√(Rδ), k_t = 8G*√(Rδ)
+            // and the tangential damping follow from the same E, ν and β in both engines.
+            let e_of = |alpha: f64, field: &str| -> Result<f64, Refusal> {
+                let beta = -alpha / 5f64.sqrt();
+                if beta <= -1.0 {
+                    return Err(refuse(
+                        field,
+                        "this restitution needs more damping than LIGGGHTS's Hertz model can \
+                         express (|β| ≥ 1)",
+                    ));
+                }
+                Ok((beta * std::f64::consts::PI / (1.0 - beta * beta).sqrt()).exp())
+            };
+            let c = &scene.file.contact;
+            hertz = Some((
+                c.youngs_modulus.map(|q| q.si).unwrap_or(0.0),
+                c.poisson_ratio.map(|q| q.0).unwrap_or(0.0),
+                e_of(l.pp_normal.alpha, "contact.restitution")?,
+                e_of(l.pw_normal.alpha, "contact.wall_restitution")?,
+            ));
+            let unused = Pair {
+                kn: 0.0,
+                kt: 0.0,
+                gamma_n: 0.0,
+                gamma_t: 0.0,
+                mu: l.pp_tangential.mu,
+            };
+            (
+                unused,
+                Pair {
+                    mu: l.pw_tangential.mu,
+                    ..unused
+                },
+                true,
+            )
+        }
+        LawSet::HertzCoulomb(_) => {
             return Err(refuse(
-                "contact.normal",
-                "`hertz` is not mapped yet: LIGGGHTS's Hertz damping (β from ln e) differs \
-                 from the built-in engine's exact-restitution Tsuji damping; use `hooke`",
+                "contact.tangential",
+                "`coulomb_viscous` with `hertz`: LIGGGHTS's `no_history` damps with the Hertz \
+                 tangential γ_t, not the built-in engine's γ_n; use `history` (or `hooke`)",
             ))
         }
     };
@@ -163,18 +205,36 @@ pub fn map(scene: &Scene, cfg: &DemConfig) -> Result<Mapped, Refusal> {
     let matrix = |name: &str, pp: f64, pw: f64| {
         format!("fix pf_{name} all property/global {name} peratomtypepair 2 {pp:e} {pw:e} {pw:e} {pw:e}")
     };
-    push(matrix("kn", pp.kn, pw.kn));
-    push(matrix("kt", pp.kt, pw.kt));
-    push(matrix("gamman_abs", pp.gamma_n, pw.gamma_n));
-    push(matrix("gammat_abs", pp.gamma_t, pw.gamma_t));
-    push(matrix("coefficientFriction", pp.mu, pw.mu));
-    let model = format!(
-        "model hooke/stiffness tangential {}",
-        if history { "history" } else { "no_history" }
-    );
+    let tangential = if history { "history" } else { "no_history" };
     // Model keywords follow the model names in `pair_style` but the wall arguments in
     // `fix wall/gran`.
-    let keywords = "absolute_damping on tangential_damping on";
+    let (model, keywords) = match hertz {
+        Some((e_mod, nu, e_pp, e_pw)) => {
+            push(format!(
+                "fix pf_E all property/global youngsModulus peratomtype {e_mod:e} {e_mod:e}"
+            ));
+            push(format!(
+                "fix pf_nu all property/global poissonsRatio peratomtype {nu:e} {nu:e}"
+            ));
+            push(matrix("coefficientRestitution", e_pp, e_pw));
+            push(matrix("coefficientFriction", pp.mu, pw.mu));
+            (
+                format!("model hertz tangential {tangential}"),
+                "tangential_damping on",
+            )
+        }
+        None => {
+            push(matrix("kn", pp.kn, pw.kn));
+            push(matrix("kt", pp.kt, pw.kt));
+            push(matrix("gamman_abs", pp.gamma_n, pw.gamma_n));
+            push(matrix("gammat_abs", pp.gamma_t, pw.gamma_t));
+            push(matrix("coefficientFriction", pp.mu, pw.mu));
+            (
+                format!("model hooke/stiffness tangential {tangential}"),
+                "absolute_damping on tangential_damping on",
+            )
+        }
+    };
     push(format!("pair_style gran {model} {keywords}"));
     push("pair_coeff * *".into());
     push(format!("timestep {:e}", cfg.dt));
