@@ -116,6 +116,15 @@ impl Scene {
         })
     }
 
+    /// A scene from the JSON text `pf_dem_create` receives (the inverse of [`Scene::to_json`]).
+    pub fn from_json(json: &str) -> Result<Scene, SceneError> {
+        let value: toml::Value = serde_json::from_str(json)
+            .map_err(|e| SceneError::Syntax(format!("scene JSON: {e}")))?;
+        let text =
+            toml::to_string(&value).map_err(|e| SceneError::Syntax(format!("scene JSON: {e}")))?;
+        Self::parse(&text, &[])
+    }
+
     /// The scene (after overrides) as JSON text: what the DEM ABI's `pf_dem_create` takes.
     pub fn to_json(&self) -> String {
         let value: toml::Value = toml::from_str(&self.text).expect("re-serialised scene parses");

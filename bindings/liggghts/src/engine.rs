@@ -8,7 +8,9 @@ use std::sync::Mutex;
 use plugflow::dem::{DemConfig, NativeDem};
 use plugflow::scene::Scene;
 use plugflow_coupling::abi::PfDemFlow;
-use plugflow_coupling::DemBackend;
+use plugflow_coupling::{
+    BackendError, DemBackend, GrainFlow, ImplicitDrag, NewParticle, ParticleView, WallForce,
+};
 
 use crate::input::{map, map_user, Mapped, Outlet};
 
@@ -505,5 +507,111 @@ impl Drop for Liggghts {
         // SAFETY: the instance is closed once.
         let _ = call(|e, l| unsafe { pfl_close(self.lmp, e, l) });
         let _ = std::fs::remove_dir_all(&self.workdir);
+    }
+}
+
+/// LIGGGHTS's failures (a blow-up message names the step and the grain, see `advance`).
+fn engine_error(message: EngineError) -> BackendError {
+    BackendError::Engine {
+        engine: "liggghts".into(),
+        message,
+    }
+}
+
+impl DemBackend for Liggghts {
+    fn engine_name(&self) -> &str {
+        "liggghts"
+    }
+    fn engine_version(&self) -> String {
+        self.version.clone()
+    }
+    fn time_step(&self) -> f64 {
+        self.cfg.dt
+    }
+    fn time(&self) -> f64 {
+        self.time
+    }
+    fn step_count(&self) -> u64 {
+        self.steps
+    }
+    fn advance(&mut self, steps: u64) -> Result<(), BackendError> {
+        Liggghts::advance(self, steps).map_err(engine_error)
+    }
+    fn particles(&self) -> ParticleView<'_> {
+        ParticleView {
+            id: &self.ids,
+            position: &self.x,
+            velocity: &self.v,
+            angular_velocity: &self.omega,
+            radius: &self.radius,
+            mass: &self.mass,
+        }
+    }
+    fn set_fluid_forces(
+        &mut self,
+        force: &[[f64; 3]],
+        implicit: Option<ImplicitDrag<'_>>,
+    ) -> Result<(), BackendError> {
+        if implicit.is_some() {
+            return Err(BackendError::InvalidArgument {
+                argument: "implicit".into(),
+                reason: "the LIGGGHTS shim takes the drag as an explicit force".into(),
+            });
+        }
+        if let Some(i) = force.iter().position(|f| f.iter().any(|c| !c.is_finite())) {
+            return Err(BackendError::NonFinite {
+                step: self.steps,
+                particle_id: self.ids.get(i).copied().unwrap_or(0),
+                what: format!("fluid force {:?}", force[i]),
+            });
+        }
+        self.set_fluid(force)
+            .map_err(|reason| BackendError::InvalidArgument {
+                argument: "force".into(),
+                reason,
+            })
+    }
+    fn insert(&mut self, particles: &[NewParticle]) -> Result<Vec<u64>, BackendError> {
+        let x: Vec<[f64; 3]> = particles.iter().map(|p| p.position).collect();
+        let v: Vec<[f64; 3]> = particles.iter().map(|p| p.velocity).collect();
+        let r: Vec<f64> = particles.iter().map(|p| p.radius).collect();
+        let rho: Vec<f64> = particles.iter().map(|p| p.density).collect();
+        Liggghts::insert(self, &x, &v, &r, &rho).map_err(|reason| BackendError::InvalidArgument {
+            argument: "grains".into(),
+            reason,
+        })
+    }
+    fn remove_past_outlet(&mut self) -> Result<f64, BackendError> {
+        Liggghts::remove_past_outlet(self).map_err(engine_error)
+    }
+    /// Forces from LIGGGHTS's `store_force` arrays (none for a user's own input, whose
+    /// walls plugflow does not know).
+    fn wall_forces(&self) -> Vec<WallForce> {
+        match Liggghts::wall_forces(self) {
+            Ok(f) => self
+                .mapped
+                .walls
+                .iter()
+                .zip(f)
+                .map(|((name, _), force)| WallForce {
+                    wall: name.clone(),
+                    force,
+                })
+                .collect(),
+            Err(_) => Vec::new(),
+        }
+    }
+    fn stage_times(&self) -> Vec<(String, f64)> {
+        Vec::new()
+    }
+    fn flow(&self) -> Option<GrainFlow> {
+        let f = &self.flow;
+        Some(GrainFlow {
+            fed_count: f.fed_count,
+            fed_mass: f.fed_mass,
+            outflow_count: f.outflow_count,
+            outflow_mass: f.outflow_mass,
+            lost_count: f.lost_count,
+        })
     }
 }
