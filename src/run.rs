@@ -173,7 +173,7 @@ pub fn run(scene: &Scene, opts: &RunOptions) -> Result<RunOutcome, RunError> {
             },
             cfg.radius_min + cfg.radius_max,
             wall_kn,
-            PlugWindow::default(),
+            plug_window(&f.output),
         )
     });
     let mut porosity_rows: Vec<Vec<Real>> = Vec::new();
@@ -507,6 +507,20 @@ pub fn run(scene: &Scene, opts: &RunOptions) -> Result<RunOutcome, RunError> {
     match failure {
         Some(e) => Err(e),
         None => Ok(RunOutcome { summary, out_dir }),
+    }
+}
+
+/// The plugs the profiles average over: the scene's windows, each defaulting to
+/// [`PlugWindow::default`]'s.
+fn plug_window(o: &crate::scene::schema::OutputSpec) -> PlugWindow {
+    let d = PlugWindow::default();
+    let Some(p) = &o.profiles else {
+        return d;
+    };
+    PlugWindow {
+        length: p.plug_length.map_or(d.length, |r| (r[0].si, r[1].si)),
+        velocity: p.plug_velocity.map_or(d.velocity, |r| (r[0].si, r[1].si)),
+        centre: p.centre.map_or(d.centre, |r| (r[0].0, r[1].0)),
     }
 }
 

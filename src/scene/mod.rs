@@ -508,6 +508,34 @@ fn check(f: &SceneFile) -> Result<(), SceneError> {
         return Err(field_err("output.sample_interval", "must be positive"));
     }
     check_gas(f)?;
+    if let Some(p) = &f.output.profiles {
+        let ranges = [
+            (
+                "output.profiles.plug_length",
+                p.plug_length.map(|r| (r[0].si, r[1].si)),
+            ),
+            (
+                "output.profiles.plug_velocity",
+                p.plug_velocity.map(|r| (r[0].si, r[1].si)),
+            ),
+            ("output.profiles.centre", p.centre.map(|r| (r[0].0, r[1].0))),
+        ];
+        for (field, range) in ranges {
+            if let Some((lo, hi)) = range {
+                if lo > hi {
+                    return Err(field_err(field, format!("[{lo}, {hi}] is empty (lo > hi)")));
+                }
+            }
+        }
+        if let Some(c) = p.centre {
+            if c[0].0 < 0.0 || c[1].0 > 1.0 {
+                return Err(field_err(
+                    "output.profiles.centre",
+                    "fractions of the tube length lie in [0, 1]",
+                ));
+            }
+        }
+    }
     if let Some(sn) = &f.output.snapshots {
         if sn.interval.si <= 0.0 {
             return Err(field_err("output.snapshots.interval", "must be positive"));

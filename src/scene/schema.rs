@@ -404,6 +404,21 @@ pub struct OutputSpec {
     /// Particle snapshots (positions, velocities, radii, ids). None unless asked: a scene
     /// without this table writes none and pays nothing for them.
     pub snapshots: Option<SnapshotSpec>,
+    /// Which plugs the profiles average over (default: 1–6 cm long, 0–1 m/s, centre in the
+    /// middle 20 % of the tube).
+    pub profiles: Option<ProfileSpec>,
+}
+
+/// Plug selection windows of the profiles.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ProfileSpec {
+    /// Plug length range [lo, hi], m.
+    pub plug_length: Option<[Q<Length>; 2]>,
+    /// Tracked plug velocity range [lo, hi], m/s.
+    pub plug_velocity: Option<[Q<Velocity>; 2]>,
+    /// Plug centre range along the tube, as fractions of its length [lo, hi].
+    pub centre: Option<[Finite; 2]>,
 }
 
 impl Default for OutputSpec {
@@ -414,6 +429,7 @@ impl Default for OutputSpec {
             slice_length: None,
             reproduces: Vec::new(),
             snapshots: None,
+            profiles: None,
         }
     }
 }
