@@ -4,11 +4,12 @@
 #   --base  only what building and running plugflow needs: the HDF5 C library (run.h5)
 #           and pkg-config, which finds it.
 #   (none)  also what the tests and the benchmark need: LIGGGHTS with its headers and
-#           OpenMPI (reference engine), and h5py (reads run.h5 back from Python).
+#           OpenMPI (reference engine), procps (pgrep/kill in the isolation test), and h5py
+#           (reads run.h5 back from Python).
 set -euo pipefail
 pkgs=(libhdf5-dev pkg-config)
 if [ "${1:-}" != "--base" ]; then
-  pkgs+=(liggghts libliggghts-dev libopenmpi-dev)
+  pkgs+=(liggghts libliggghts-dev libopenmpi-dev procps)
 fi
 missing=()
 for p in "${pkgs[@]}"; do
