@@ -7,6 +7,9 @@ bash scripts/setup-system.sh
 export PLUGFLOW_REQUIRE_H5PY=1
 cargo fmt --all -- --check
 cargo clippy --workspace --all-targets --release --features plugflow-dem-liggghts/liggghts -- -D warnings
+# The ABI engines' shared libraries (cdylibs) are built by `cargo build`, not by
+# `cargo test`; the engine tests load them from target/release/.
+cargo build --release --workspace --features plugflow-dem-liggghts/liggghts
 log=$(mktemp)
 # Unit and integration tests (the benchmark is not a test: cargo bench --bench dem_bench).
 # The LIGGGHTS shim (GPL crate) builds only with its feature; the cross-code tests load it.
