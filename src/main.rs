@@ -92,6 +92,25 @@ enum Command {
     },
 }
 
+/// The scene with its overrides and a positive `--duration`, or exit code 2 after saying
+/// what is wrong.
+fn checked_scene(
+    scene: &std::path::Path,
+    set: &[String],
+    duration: Option<f64>,
+) -> Result<Scene, ExitCode> {
+    if let Some(d) = duration {
+        if !(d.is_finite() && d > 0.0) {
+            eprintln!("error: --duration must be a positive number of seconds");
+            return Err(ExitCode::from(2));
+        }
+    }
+    Scene::load(scene, set).map_err(|e| {
+        eprintln!("error: {e}");
+        ExitCode::from(2)
+    })
+}
+
 fn main() -> ExitCode {
     let cli = Cli::parse();
     match cli.command {
@@ -102,18 +121,9 @@ fn main() -> ExitCode {
             duration,
             set,
         } => {
-            if let Some(d) = duration {
-                if !(d.is_finite() && d > 0.0) {
-                    eprintln!("error: --duration must be a positive number of seconds");
-                    return ExitCode::from(2);
-                }
-            }
-            let base = match Scene::load(&scene, &set) {
+            let base = match checked_scene(&scene, &set, duration) {
                 Ok(s) => s,
-                Err(e) => {
-                    eprintln!("error: {e}");
-                    return ExitCode::from(2);
-                }
+                Err(code) => return code,
             };
             let out = out.unwrap_or_else(|| {
                 PathBuf::from("results").join(format!("{}_crosscheck", base.file.name))
@@ -166,18 +176,9 @@ fn main() -> ExitCode {
                     return ExitCode::from(2);
                 }
             };
-            if let Some(d) = duration {
-                if !(d.is_finite() && d > 0.0) {
-                    eprintln!("error: --duration must be a positive number of seconds");
-                    return ExitCode::from(2);
-                }
-            }
-            let base = match Scene::load(&scene, &set) {
+            let base = match checked_scene(&scene, &set, duration) {
                 Ok(s) => s,
-                Err(e) => {
-                    eprintln!("error: {e}");
-                    return ExitCode::from(2);
-                }
+                Err(code) => return code,
             };
             let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
             let opts = sweep::SweepOptions {
@@ -271,18 +272,9 @@ fn main() -> ExitCode {
             set,
             quiet,
         } => {
-            if let Some(d) = duration {
-                if !(d.is_finite() && d > 0.0) {
-                    eprintln!("error: --duration must be a positive number of seconds");
-                    return ExitCode::from(2);
-                }
-            }
-            let s = match Scene::load(&scene, &set) {
+            let s = match checked_scene(&scene, &set, duration) {
                 Ok(s) => s,
-                Err(e) => {
-                    eprintln!("error: {e}");
-                    return ExitCode::from(2);
-                }
+                Err(code) => return code,
             };
             let opts = RunOptions {
                 out_dir: out,

@@ -13,7 +13,7 @@ use crate::analysis::profiles::{local_minima, PlugWindow, Profiles, TubeFrame};
 use crate::analysis::targets;
 use crate::cosim::{check_json, coupling_from_scene};
 use crate::dem::config::LawSet;
-use crate::dem::{DemConfig, NativeDem};
+use crate::dem::DemConfig;
 use crate::engine::build_backend;
 use crate::output::figures::{self, Curve, Panel};
 use crate::output::hdf5::{Hdf5Output, RunMeta};
@@ -65,12 +65,6 @@ pub struct RunOutcome {
     pub summary: Value,
     /// Where it was written.
     pub out_dir: PathBuf,
-}
-
-/// Build the engine a scene asks for.
-pub fn build_engine(scene: &Scene) -> Result<NativeDem, SceneError> {
-    let cfg = DemConfig::from_scene(scene)?;
-    NativeDem::new(cfg)
 }
 
 /// Run a scene to its end.

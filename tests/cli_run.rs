@@ -2,24 +2,8 @@
 //! blows up stops with the step and grain and still writes its summary.
 
 mod common;
-use common::{box_scene, HOOKE};
+use common::{box_scene, plugflow, HOOKE};
 use std::path::Path;
-use std::process::Command;
-
-fn plugflow(args: &[&str]) -> (i32, String) {
-    let o = Command::new(env!("CARGO_BIN_EXE_plugflow"))
-        .args(args)
-        .output()
-        .unwrap();
-    (
-        o.status.code().unwrap_or(-1),
-        format!(
-            "{}{}",
-            String::from_utf8_lossy(&o.stdout),
-            String::from_utf8_lossy(&o.stderr)
-        ),
-    )
-}
 
 #[test]
 fn run_writes_summary_with_required_keys() {

@@ -7,6 +7,8 @@
 //! damping) and the same initial grains (placed by plugflow, inserted into LIGGGHTS).
 //! A failing comparison prints both engines' numbers.
 
+mod common;
+use common::plugflow;
 use std::path::{Path, PathBuf};
 use std::sync::Mutex;
 
@@ -390,21 +392,6 @@ fn e_cli_runs_a_case_on_liggghts() {
     let fed = s["grains_fed"].as_f64().unwrap();
     assert!((100.0..=200.0).contains(&fed), "{fed} grains fed");
     std::fs::remove_dir_all(&out).ok();
-}
-
-fn plugflow(args: &[&str]) -> (i32, String) {
-    let o = std::process::Command::new(env!("CARGO_BIN_EXE_plugflow"))
-        .args(args)
-        .output()
-        .unwrap();
-    (
-        o.status.code().unwrap_or(-1),
-        format!(
-            "{}{}",
-            String::from_utf8_lossy(&o.stdout),
-            String::from_utf8_lossy(&o.stderr)
-        ),
-    )
 }
 
 /// A LIGGGHTS user's own input (cases/liggghts_user) runs coupled with the gas; inputs

@@ -53,3 +53,19 @@ pub fn grain(x: [f64; 3], v: [f64; 3]) -> plugflow_coupling::NewParticle {
         density: 937.0,
     }
 }
+
+/// Run the `plugflow` binary; (exit code, stdout + stderr).
+pub fn plugflow(args: &[&str]) -> (i32, String) {
+    let o = std::process::Command::new(env!("CARGO_BIN_EXE_plugflow"))
+        .args(args)
+        .output()
+        .unwrap();
+    (
+        o.status.code().unwrap_or(-1),
+        format!(
+            "{}{}",
+            String::from_utf8_lossy(&o.stdout),
+            String::from_utf8_lossy(&o.stderr)
+        ),
+    )
+}

@@ -100,7 +100,7 @@ impl Liggghts {
         let cfg = DemConfig::from_scene(scene).map_err(|e| e.to_string())?;
         let user_input = scene.file.dem.liggghts_input.clone();
         let mapped = match &user_input {
-            Some(path) => map_user(scene, &cfg, path).map_err(|e| e.to_string())?,
+            Some(path) => map_user(&cfg, path).map_err(|e| e.to_string())?,
             None => map(scene, &cfg).map_err(|e| e.to_string())?,
         };
         // The initial fill exactly as the built-in engine places it.

@@ -182,10 +182,6 @@ pub fn map(scene: &Scene, cfg: &DemConfig) -> Result<Mapped, Refusal> {
             ))
         }
     };
-    let f = &scene.file;
-    if f.initial.is_some() && f.inlet.is_some() {
-        // Both work; nothing to refuse. (Initial grains are placed by plugflow and inserted.)
-    }
     let mut c: Vec<String> = Vec::new();
     let mut push = |s: String| c.push(s);
     push("atom_style granular".into());
@@ -365,7 +361,7 @@ const REFUSED: [&str; 8] = [
 ];
 
 /// A user's own LIGGGHTS input (CFDEMcoupling style) with plugflow's coupling fixes.
-pub fn map_user(scene: &Scene, cfg: &DemConfig, path: &str) -> Result<Mapped, Refusal> {
+pub fn map_user(cfg: &DemConfig, path: &str) -> Result<Mapped, Refusal> {
     let field = "dem.liggghts_input";
     let text = std::fs::read_to_string(path)
         .map_err(|e| refuse(field, format!("cannot read `{path}`: {e}")))?;
@@ -385,7 +381,7 @@ pub fn map_user(scene: &Scene, cfg: &DemConfig, path: &str) -> Result<Mapped, Re
         }
     }
     let mut c = Vec::new();
-    let (mut style, mut integrator, mut timestep, mut coupled) = (false, false, None, false);
+    let (mut style, mut integrator, mut timestep) = (false, false, None);
     for (n, line) in &lines {
         let w: Vec<&str> = line.split_whitespace().collect();
         if REFUSED.contains(&w[0]) {
@@ -417,9 +413,6 @@ pub fn map_user(scene: &Scene, cfg: &DemConfig, path: &str) -> Result<Mapped, Re
         }
         if w[0] == "fix" && w.get(3).is_some_and(|s| s.starts_with("nve/sphere")) {
             integrator = true;
-        }
-        if w[0] == "fix" && w.get(3).is_some_and(|s| s.starts_with("couple/cfd")) {
-            coupled = true;
         }
         if w[0] == "timestep" {
             timestep = w.get(1).and_then(|t| t.parse::<f64>().ok());
@@ -457,7 +450,6 @@ pub fn map_user(scene: &Scene, cfg: &DemConfig, path: &str) -> Result<Mapped, Re
             ),
         ));
     }
-    let _ = coupled; // with or without CFDEM's coupling fixes: both are accepted
     push_fluid_force(&mut c);
     let r = cfg.radius_min;
     let rho = cfg.density;
@@ -468,7 +460,6 @@ pub fn map_user(scene: &Scene, cfg: &DemConfig, path: &str) -> Result<Mapped, Re
             position: t.origin[a] + sign * t.length,
         })
     });
-    let _ = scene;
     Ok(Mapped {
         commands: c,
         walls: Vec::new(),
