@@ -4,12 +4,13 @@
 #   --base  only what building and running plugflow needs: the HDF5 C library (run.h5)
 #           and pkg-config, which finds it.
 #   (none)  also what the tests and the benchmark need: LIGGGHTS with its headers and
-#           OpenMPI (reference engine), procps (pgrep/kill in the isolation test), and h5py
-#           (reads run.h5 back from Python).
+#           OpenMPI (reference engine), YADE with Python 3.11's headers (the YADE shim embeds
+#           Debian's Python to drive it; ~770 MB), procps (pgrep/kill in the isolation
+#           test), and h5py (reads run.h5 back from Python).
 set -euo pipefail
 pkgs=(libhdf5-dev pkg-config)
 if [ "${1:-}" != "--base" ]; then
-  pkgs+=(liggghts libliggghts-dev libopenmpi-dev procps)
+  pkgs+=(liggghts libliggghts-dev libopenmpi-dev yade python3-yade libpython3.11-dev procps)
 fi
 missing=()
 for p in "${pkgs[@]}"; do

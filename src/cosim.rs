@@ -123,5 +123,31 @@ pub fn coupling_checks(
             interval,
             grid.dz.min(grid.dx).min(grid.dy),
         ),
+        check_darcy_range(params.superficial_velocity),
     ]
+}
+
+/// Highest superficial gas velocity of the d'Arcy model's range, m/s: above it "the
+/// simulation method underestimates the pressure drop, because it does not consider the
+/// increasing drag force on single particles" (seed 000 §4.1, v_s > 4 m/s).
+pub const DARCY_MAX_SUPERFICIAL_VELOCITY: Real = 4.0;
+
+/// The d'Arcy drag outside its range is a warning, not a refusal: the run is stable, its
+/// pressure drop a lower bound.
+fn check_darcy_range(v_s: Real) -> CouplingCheck {
+    let over = v_s > DARCY_MAX_SUPERFICIAL_VELOCITY;
+    CouplingCheck {
+        name: "superficial gas velocity in the d'Arcy model's range, m/s",
+        value: v_s,
+        limit: DARCY_MAX_SUPERFICIAL_VELOCITY,
+        verdict: if over { Verdict::Warning } else { Verdict::Ok },
+        advice: if over {
+            "above ~4 m/s the drag on single grains dominates and the d'Arcy model \
+             underestimates the pressure drop (seed 000 §4.1); a drag law with an inertial \
+             term (Ergun / Wen–Yu) is needed there"
+                .into()
+        } else {
+            String::new()
+        },
+    }
 }

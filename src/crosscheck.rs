@@ -9,6 +9,8 @@ use std::process::Command;
 
 use serde_json::Value;
 
+use crate::dem::DemConfig;
+use crate::engine::build_backend;
 use crate::output::figures::{self, Curve, Panel};
 use crate::scene::{Scene, SceneError};
 use crate::Real;
@@ -53,15 +55,20 @@ pub fn crosscheck(
         path: p.display().to_string(),
         reason: e.to_string(),
     };
-    // Every engine must accept the scene before the first runs.
+    // Every engine must accept the scene, and build it, before the first runs: an engine
+    // refusing what its laws cannot express (YADE and the regularised Coulomb law, say)
+    // should not wait until the others have run for minutes.
     let mut runs = Vec::new();
     for e in engines {
         let mut s = set.to_vec();
         s.push(format!("dem.engine={e}"));
-        Scene::load(scene_path, &s).map_err(|source| CrosscheckError::Scene {
+        let scene_err = |source| CrosscheckError::Scene {
             engine: e.clone(),
             source,
-        })?;
+        };
+        let scene = Scene::load(scene_path, &s).map_err(scene_err)?;
+        let cfg = DemConfig::from_scene(&scene).map_err(scene_err)?;
+        drop(build_backend(&scene, &cfg).map_err(scene_err)?);
         runs.push((e.clone(), s));
     }
     std::fs::create_dir_all(out_dir).map_err(|e| io(out_dir, &e))?;

@@ -11,7 +11,7 @@ use crate::dem::{DemConfig, NativeDem};
 use crate::scene::{Scene, SceneError};
 
 /// Engines a scene may name.
-pub const ENGINES: [&str; 3] = ["native", "native_abi", "liggghts"];
+pub const ENGINES: [&str; 4] = ["native", "native_abi", "liggghts", "yade"];
 
 /// The library of an ABI engine: the scene's `dem.library`, else
 /// `libplugflow_dem_<engine>.so` next to the running executable (where cargo builds it;
@@ -35,6 +35,10 @@ fn library(scene: &Scene) -> Result<PathBuf, SceneError> {
             let build = match d.engine.as_str() {
                 "liggghts" => {
                     "cargo build --release -p plugflow-dem-liggghts --features liggghts \
+                     (after bash scripts/setup-system.sh)"
+                }
+                "yade" => {
+                    "cargo build --release -p plugflow-dem-yade --features yade \
                      (after bash scripts/setup-system.sh)"
                 }
                 _ => "cargo build --release -p plugflow-dem-native",

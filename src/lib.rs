@@ -18,6 +18,7 @@ pub mod png;
 pub mod rng;
 pub mod run;
 pub mod scene;
+pub mod study;
 pub mod sweep;
 
 pub use plugflow_coupling::{Real, Vec3};

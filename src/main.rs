@@ -1,4 +1,4 @@
-//! The `plugflow` command line: `run`, `sweep`, `crosscheck`, `validate`.
+//! The `plugflow` command line: `run`, `sweep`, `study`, `crosscheck`, `validate`.
 
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -7,7 +7,7 @@ use clap::{Parser, Subcommand};
 use plugflow::dem::DemConfig;
 use plugflow::run::{run, RunError, RunOptions};
 use plugflow::scene::Scene;
-use plugflow::{crosscheck, sweep};
+use plugflow::{crosscheck, study, sweep};
 
 #[derive(Parser)]
 #[command(
@@ -69,7 +69,7 @@ enum Command {
     Crosscheck {
         /// Scene file (TOML).
         scene: PathBuf,
-        /// Engines, comma-separated: native, native_abi, liggghts.
+        /// Engines, comma-separated: native, native_abi, liggghts, yade.
         #[arg(long, value_delimiter = ',', default_value = "native,liggghts")]
         engines: Vec<String>,
         /// Output folder.
@@ -79,6 +79,43 @@ enum Command {
         #[arg(long)]
         duration: Option<f64>,
         /// Override a scene field on every engine (repeatable).
+        #[arg(long = "set", value_name = "PATH=VALUE")]
+        set: Vec<String>,
+    },
+    /// Error against run time: run every combination of the --vary lists, measure each
+    /// observable's error against an exact value (--exact) or the finest variant, and write
+    /// study.csv, study.md and study.png (error vs wall time, Pareto front) into the output
+    /// folder (default results/<scene name>_study/).
+    Study {
+        /// Scene file (TOML).
+        scene: PathBuf,
+        /// A field and its values: --vary dem.dt=1e-6,2e-6 (repeatable; any scene path).
+        #[arg(long = "vary", value_name = "PATH=V1,V2,...", required = true)]
+        vary: Vec<String>,
+        /// Summary keys whose error is measured (default: pressure drop, grains in the
+        /// tube, outflow).
+        #[arg(long, value_delimiter = ',')]
+        observables: Vec<String>,
+        /// An exact (analytic) value of an observable, used as its reference instead of the
+        /// finest variant (repeatable): --exact pressure_drop_hpa_per_m=14.92.
+        #[arg(long = "exact", value_name = "KEY=VALUE")]
+        exact: Vec<String>,
+        /// Name the cheapest variant whose largest relative error is at most this.
+        #[arg(long)]
+        target_error: Option<f64>,
+        /// Output folder.
+        #[arg(long)]
+        out: Option<PathBuf>,
+        /// Simulated time per variant, s.
+        #[arg(long)]
+        duration: Option<f64>,
+        /// Variants run at once (default 1, so that the wall times compare).
+        #[arg(long, default_value_t = 1)]
+        jobs: usize,
+        /// DEM threads per variant.
+        #[arg(long, default_value_t = 1)]
+        threads: usize,
+        /// Override a scene field in every variant (repeatable).
         #[arg(long = "set", value_name = "PATH=VALUE")]
         set: Vec<String>,
     },
@@ -209,6 +246,125 @@ fn main() -> ExitCode {
                         failed,
                         opts.out_dir.join("sweep.csv").display()
                     );
+                    if failed == 0 {
+                        ExitCode::SUCCESS
+                    } else {
+                        ExitCode::FAILURE
+                    }
+                }
+                Err(e @ sweep::SweepError::Vary { .. })
+                | Err(e @ sweep::SweepError::Scene { .. }) => {
+                    eprintln!("error: {e}");
+                    ExitCode::from(2)
+                }
+                Err(e) => {
+                    eprintln!("error: {e}");
+                    ExitCode::FAILURE
+                }
+            }
+        }
+        Command::Study {
+            scene,
+            vary,
+            observables,
+            exact,
+            target_error,
+            out,
+            duration,
+            jobs,
+            threads,
+            set,
+        } => {
+            let varies: Result<Vec<_>, _> = vary.iter().map(|v| sweep::parse_vary(v)).collect();
+            let varies = match varies {
+                Ok(v) => v,
+                Err(e) => {
+                    eprintln!("error: {e}");
+                    return ExitCode::from(2);
+                }
+            };
+            let mut exact_values = Vec::new();
+            for e in &exact {
+                match e
+                    .split_once('=')
+                    .map(|(k, v)| (k.trim(), v.trim().parse::<f64>()))
+                {
+                    Some((k, Ok(v))) if !k.is_empty() && v.is_finite() => {
+                        exact_values.push((k.to_string(), v))
+                    }
+                    _ => {
+                        eprintln!("error: --exact `{e}`: expected KEY=NUMBER");
+                        return ExitCode::from(2);
+                    }
+                }
+            }
+            if let Some(t) = target_error {
+                if !(t.is_finite() && t > 0.0) {
+                    eprintln!("error: --target-error must be a positive number");
+                    return ExitCode::from(2);
+                }
+            }
+            let base = match checked_scene(&scene, &set, duration) {
+                Ok(s) => s,
+                Err(code) => return code,
+            };
+            let opts = study::StudyOptions {
+                runs: sweep::SweepOptions {
+                    out_dir: out.unwrap_or_else(|| {
+                        PathBuf::from("results").join(format!("{}_study", base.file.name))
+                    }),
+                    jobs: jobs.max(1),
+                    duration,
+                    set,
+                    threads: threads.max(1),
+                },
+                observables: if observables.is_empty() {
+                    study::DEFAULT_OBSERVABLES
+                        .iter()
+                        .map(|s| s.to_string())
+                        .collect()
+                } else {
+                    observables
+                },
+                exact: exact_values,
+                target_error,
+            };
+            let exe = match std::env::current_exe() {
+                Ok(e) => e,
+                Err(e) => {
+                    eprintln!("error: cannot find the plugflow executable: {e}");
+                    return ExitCode::FAILURE;
+                }
+            };
+            match study::study(&exe, &scene, &varies, &opts) {
+                Ok(r) => {
+                    let failed = r.rows.iter().filter(|x| x.status != "completed").count();
+                    println!(
+                        "study: {} variants ({failed} failed), reference: {}; {}",
+                        r.rows.len(),
+                        r.references
+                            .iter()
+                            .map(|(k, _, from)| format!("{k} from {from}"))
+                            .collect::<Vec<_>>()
+                            .join(", "),
+                        opts.runs.out_dir.join("study.md").display()
+                    );
+                    match (target_error, r.cheapest) {
+                        (Some(t), Some(k)) => println!(
+                            "cheapest variant with largest error ≤ {t}: {k:03} ({}), {:.1} s",
+                            r.rows[k]
+                                .settings
+                                .iter()
+                                .map(|(p, x)| format!("{p}={x}"))
+                                .collect::<Vec<_>>()
+                                .join(" "),
+                            r.rows[k].wall_time.unwrap_or(0.0)
+                        ),
+                        (Some(t), None) => {
+                            println!("no variant but the reference reaches an error ≤ {t}")
+                        }
+                        _ => {}
+                    }
                     if failed == 0 {
                         ExitCode::SUCCESS
                     } else {

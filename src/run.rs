@@ -362,6 +362,54 @@ pub fn run(scene: &Scene, opts: &RunOptions) -> Result<RunOutcome, RunError> {
         "threads": cfg.threads,
     });
     let mut summary = summary;
+    // What the numbers are worth: the DEM step against its stability limit and, with gas,
+    // the gas step's time error (step doubling), the coupling checks and the clamps.
+    let mut accuracy = json!({
+        "dem_dt_s": dt,
+        "dem_dt_limit_s": cfg.dt_report.limit,
+        "dem_dt_limit_reason": cfg.dt_report.limit_reason,
+        "dem_dt_fraction_of_limit": dt / cfg.dt_report.limit,
+    });
+    if let Some(g) = &gas {
+        let a = accuracy.as_object_mut().expect("accuracy is an object");
+        a.insert("gas_step_doubling_checks".into(), json!(g.doubling_checks));
+        a.insert(
+            "gas_step_doubling_rel_max".into(),
+            json!((g.doubling_checks > 0).then_some(g.doubling_max)),
+        );
+        a.insert(
+            "gas_step_doubling_rel_mean".into(),
+            json!((g.doubling_checks > 0).then(|| g.doubling_sum / g.doubling_checks as Real)),
+        );
+        a.insert("gas_mass_error_rel_max".into(), json!(g.mass_error_max));
+        // Clamped up to φ_min: nodes more solid than the model allows (over-packed); down to
+        // φ_max: nearly empty nodes (harmless: the gas barely feels them).
+        a.insert("porosity_clamped_node_steps".into(), json!(g.clamped));
+        a.insert(
+            "porosity_clamped_low_node_steps".into(),
+            json!(g.clamped_low),
+        );
+        a.insert(
+            "porosity_clamped_high_node_steps".into(),
+            json!(g.clamped - g.clamped_low),
+        );
+        a.insert(
+            "porosity_clamped_fraction".into(),
+            json!(if g.node_steps > 0 {
+                g.clamped as Real / g.node_steps as Real
+            } else {
+                0.0
+            }),
+        );
+        a.insert(
+            "coupling_checks".into(),
+            Value::Array(g.checks.iter().map(check_json).collect()),
+        );
+    }
+    summary
+        .as_object_mut()
+        .expect("summary is an object")
+        .insert("accuracy".into(), accuracy);
     for (name, value) in dem.diagnostics() {
         summary
             .as_object_mut()

@@ -47,8 +47,27 @@ pub fn parse_vary(arg: &str) -> Result<Vary, SweepError> {
     let (path, list) = arg
         .split_once('=')
         .ok_or_else(|| bad("expected PATH=V1,V2,…"))?;
-    let values: Vec<String> = list
-        .split(',')
+    // Commas inside brackets belong to an array value: gas.grid=[75, 2, 2],[150, 2, 2].
+    let mut values: Vec<String> = Vec::new();
+    let (mut depth, mut current) = (0i32, String::new());
+    for c in list.chars() {
+        match c {
+            '[' => depth += 1,
+            ']' => depth -= 1,
+            _ => {}
+        }
+        if c == ',' && depth == 0 {
+            values.push(std::mem::take(&mut current));
+        } else {
+            current.push(c);
+        }
+    }
+    values.push(current);
+    if depth != 0 {
+        return Err(bad("unbalanced brackets"));
+    }
+    let values: Vec<String> = values
+        .into_iter()
         .map(|v| v.trim().to_string())
         .filter(|v| !v.is_empty())
         .collect();
@@ -107,13 +126,26 @@ fn set_arg(path: &str, value: &str) -> String {
     }
 }
 
-/// Run the sweep; returns the rows written to sweep.csv.
-pub fn sweep(
+/// One finished variant.
+#[derive(Debug, Clone)]
+pub struct VariantRun {
+    /// `(path, value)` of each varied field.
+    pub settings: Vec<(String, String)>,
+    /// Its summary.json (Null when the run wrote none).
+    pub summary: Value,
+    /// Exit code of its process.
+    pub exit: Option<i32>,
+}
+
+/// Run every combination of `varies` (each variant's scene checked before the first
+/// starts), `opts.jobs` processes at a time, each into `<out>/<k>/` with its log in
+/// `<out>/<k>.log`; the variants in combination order.
+pub fn run_variants(
     exe: &Path,
     scene_path: &Path,
     varies: &[Vary],
     opts: &SweepOptions,
-) -> Result<Vec<Value>, SweepError> {
+) -> Result<Vec<VariantRun>, SweepError> {
     let io = |p: &Path, e: &dyn std::fmt::Display| SweepError::Io {
         path: p.display().to_string(),
         reason: e.to_string(),
@@ -126,11 +158,11 @@ pub fn sweep(
         set.push(format!("dem.threads={}", opts.threads));
         set.extend(v.iter().map(|(p, x)| set_arg(p, x)));
         let label: Vec<String> = v.iter().map(|(p, x)| format!("{p}={x}")).collect();
-        let scene = Scene::load(scene_path, &set).map_err(|source| SweepError::Scene {
+        Scene::load(scene_path, &set).map_err(|source| SweepError::Scene {
             variant: label.join(" "),
             source,
         })?;
-        sets.push((set, label, scene));
+        sets.push((set, label));
     }
     std::fs::create_dir_all(&opts.out_dir).map_err(|e| io(&opts.out_dir, &e))?;
     let mut running: Vec<(usize, Child)> = Vec::new();
@@ -154,7 +186,7 @@ pub fn sweep(
             for s in &sets[next].0 {
                 cmd.arg("--set").arg(s);
             }
-            eprintln!("sweep: start {next:03}: {}", sets[next].1.join(" "));
+            eprintln!("start {next:03}: {}", sets[next].1.join(" "));
             let child = cmd
                 .stdout(Stdio::from(log))
                 .stderr(Stdio::from(log2))
@@ -170,7 +202,7 @@ pub fn sweep(
                 Ok(Some(status)) => {
                     exit[k] = Some(status.code().unwrap_or(-1));
                     eprintln!(
-                        "sweep: done  {k:03}: {} (exit {})",
+                        "done  {k:03}: {} (exit {})",
                         sets[k].1.join(" "),
                         exit[k].unwrap_or(-1)
                     );
@@ -181,6 +213,35 @@ pub fn sweep(
         }
         running = still;
     }
+    Ok(variants
+        .into_iter()
+        .enumerate()
+        .map(|(k, settings)| VariantRun {
+            settings,
+            summary: std::fs::read_to_string(
+                opts.out_dir.join(format!("{k:03}")).join("summary.json"),
+            )
+            .ok()
+            .and_then(|t| serde_json::from_str(&t).ok())
+            .unwrap_or(Value::Null),
+            exit: exit[k],
+        })
+        .collect())
+}
+
+/// Run the sweep; returns the rows written to sweep.csv.
+pub fn sweep(
+    exe: &Path,
+    scene_path: &Path,
+    varies: &[Vary],
+    opts: &SweepOptions,
+) -> Result<Vec<Value>, SweepError> {
+    let io = |p: &Path, e: &dyn std::fmt::Display| SweepError::Io {
+        path: p.display().to_string(),
+        reason: e.to_string(),
+    };
+    let runs = run_variants(exe, scene_path, varies, opts)?;
+    let variants: Vec<Vec<(String, String)>> = runs.iter().map(|r| r.settings.clone()).collect();
     // Gather.
     const COLUMNS: [&str; 9] = [
         "pressure_drop_hpa_per_m",
@@ -202,19 +263,15 @@ pub fn sweep(
     csv.push_str(&COLUMNS.join(","));
     csv.push('\n');
     let mut rows = Vec::new();
-    for (k, (_, _, _)) in sets.iter().enumerate() {
-        let dir = opts.out_dir.join(format!("{k:03}"));
-        let summary: Value = std::fs::read_to_string(dir.join("summary.json"))
-            .ok()
-            .and_then(|t| serde_json::from_str(&t).ok())
-            .unwrap_or(Value::Null);
+    for (k, run) in runs.into_iter().enumerate() {
+        let summary = run.summary;
         for (_, x) in &variants[k] {
             csv.push_str(&format!("\"{x}\","));
         }
         let status = summary["status"]
             .as_str()
             .map(|s| s.to_string())
-            .unwrap_or_else(|| format!("no summary (exit {:?})", exit[k]));
+            .unwrap_or_else(|| format!("no summary (exit {:?})", run.exit));
         csv.push_str(&format!("{k:03},\"{}\"", status.replace('"', "'")));
         for c in COLUMNS {
             csv.push(',');
@@ -264,7 +321,8 @@ fn paper_points(reproduces: &[String]) -> Vec<Curve> {
     out
 }
 
-fn leading_number(s: &str) -> Option<Real> {
+/// The number a value starts with ("2.3 l/min" → 2.3).
+pub fn leading_number(s: &str) -> Option<Real> {
     let t = s.trim().trim_matches('"');
     let end = t
         .find(|c: char| !(c.is_ascii_digit() || matches!(c, '.' | '-' | '+' | 'e' | 'E')))
@@ -362,6 +420,9 @@ mod tests {
             vec![("a".into(), "2".into()), ("b".into(), "z".into())]
         );
         assert!(parse_vary("a=").is_err());
+        let g = parse_vary("gas.grid=[75, 2, 2],[150,2,2]").unwrap();
+        assert_eq!(g.values, vec!["[75, 2, 2]", "[150,2,2]"]);
+        assert!(parse_vary("gas.grid=[75, 2").is_err());
         assert!(parse_vary("novalue").is_err());
     }
 

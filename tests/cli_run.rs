@@ -115,7 +115,7 @@ fn coupled_run_reports_gas_numbers_and_checks() {
     // After 0.4 s grains lie at the bottom: some pressure drop, none negative.
     assert!(s["pressure_drop_hpa_per_m"].as_f64().unwrap() > 0.0, "{s}");
     let checks = s["coupling_checks"].as_array().unwrap();
-    assert_eq!(checks.len(), 3);
+    assert_eq!(checks.len(), 4);
     for c in checks {
         assert_eq!(c["verdict"], "ok", "{c}");
         assert!(
@@ -123,8 +123,43 @@ fn coupled_run_reports_gas_numbers_and_checks() {
                 || c["name"].as_str().unwrap().contains("volume")
         );
     }
+    // The accuracy block: the DEM step within its limit; the gas step's time error from
+    // step doubling (4000 exchanges → 40 checks). The first check, at t = 0, meets the gas
+    // starting from rest (a jump: ~1 %); afterwards BDF2 at Δt = 1e-4 s, 400× shorter than
+    // the 40 ms relaxation time of a plug, is accurate to well under 0.1 % on average.
+    let a = &s["accuracy"];
+    let f = a["dem_dt_fraction_of_limit"].as_f64().unwrap();
+    assert!(f > 0.0 && f <= 1.0, "{a}");
+    assert_eq!(a["gas_step_doubling_checks"].as_u64().unwrap(), 40, "{a}");
+    let (max, mean) = (
+        a["gas_step_doubling_rel_max"].as_f64().unwrap(),
+        a["gas_step_doubling_rel_mean"].as_f64().unwrap(),
+    );
+    assert!(
+        (0.0..0.05).contains(&max) && (0.0..1e-3).contains(&mean),
+        "{a}"
+    );
+    // The loose grains at the bottom are never more solid than φ_min; most of the tube is
+    // empty and clamped down to φ_max.
+    assert_eq!(
+        a["porosity_clamped_low_node_steps"].as_u64().unwrap(),
+        0,
+        "{a}"
+    );
+    assert!(
+        a["porosity_clamped_high_node_steps"].as_u64().unwrap() > 0,
+        "{a}"
+    );
+    assert_eq!(a["coupling_checks"].as_array().unwrap().len(), 4, "{a}");
     let stages = s["stage_times_s"].as_object().unwrap();
-    for st in ["deposit", "gas", "interpolate_drag", "set_forces", "forces"] {
+    for st in [
+        "deposit",
+        "gas",
+        "interpolate_drag",
+        "set_forces",
+        "forces",
+        "accuracy_check",
+    ] {
         assert!(stages.contains_key(st), "stage `{st}` missing: {stages:?}");
     }
     // The case names TARGETS.md rows V1–V5 (V3 twice: statistic and tracked): each listed with measured, paper, band, verdict.
@@ -266,4 +301,102 @@ fn native_through_the_abi_runs_a_case_bit_for_bit() {
         "{text}"
     );
     std::fs::remove_dir_all(&base).ok();
+}
+
+/// `plugflow study`: every variant runs, the finest (smallest interval, largest grid) is the
+/// reference and is named, the table has a wall time, stage times and an error per
+/// observable, the figure is written, and the cheapest variant meeting a target is named.
+/// An exact value replaces the finest variant as reference for its observable.
+#[test]
+fn study_measures_error_against_run_time() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let out = std::env::temp_dir().join(format!("plugflow-study-{}", std::process::id()));
+    let case = root.join("cases/vertical_plug.toml");
+    let (code, text) = plugflow(&[
+        "study",
+        case.to_str().unwrap(),
+        "--vary",
+        "coupling.interval=5e-5,1e-4",
+        "--vary",
+        "gas.grid=[150, 2, 2],[75, 2, 2]",
+        "--duration",
+        "0.3",
+        "--set",
+        "output.settling_time=0.1 s",
+        "--exact",
+        "mass_outflow_kg_per_h=0",
+        "--target-error",
+        "0.5",
+        "--jobs",
+        "2",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert_eq!(code, 0, "{text}");
+    let md = std::fs::read_to_string(out.join("study.md")).unwrap();
+    // Variant 000 = (5e-5, [150, 2, 2]): the finest of both fields.
+    assert!(md.contains("(finest variant 000)"), "{md}");
+    assert!(
+        md.contains("`mass_outflow_kg_per_h` = 0.0000 (exact value (--exact))"),
+        "{md}"
+    );
+    assert!(
+        md.contains("| 000 | 5e-5 | [150, 2, 2] |") && md.contains("reference"),
+        "{md}"
+    );
+    assert!(
+        md.contains("Cheapest setting with largest error ≤ 0.5"),
+        "{md}"
+    );
+    let csv = std::fs::read_to_string(out.join("study.csv")).unwrap();
+    // Fields, with commas inside quotes kept ("[150, 2, 2]").
+    let fields = |line: &str| -> Vec<String> {
+        let (mut out, mut cur, mut quoted) = (Vec::new(), String::new(), false);
+        for c in line.chars() {
+            match c {
+                '"' => quoted = !quoted,
+                ',' if !quoted => out.push(std::mem::take(&mut cur)),
+                _ => cur.push(c),
+            }
+        }
+        out.push(cur);
+        out
+    };
+    let header = fields(csv.lines().next().unwrap());
+    for col in [
+        "wall_time_s",
+        "stage_gas_s",
+        "error_pressure_drop_hpa_per_m",
+        "max_error",
+        "pareto",
+    ] {
+        assert!(header.iter().any(|h| h == col), "{header:?}");
+    }
+    assert_eq!(csv.lines().count(), 5);
+    // The reference's own errors are zero; the coarse grid's pressure-drop error is not.
+    let err_col = header
+        .iter()
+        .position(|c| c == "error_pressure_drop_hpa_per_m")
+        .unwrap();
+    let errors: Vec<f64> = csv
+        .lines()
+        .skip(1)
+        .map(|l| fields(l)[err_col].parse().unwrap())
+        .collect();
+    assert_eq!(errors[0], 0.0);
+    assert!(errors[1] > 0.0, "{errors:?}");
+    let png = std::fs::read(out.join("study.png")).unwrap();
+    assert_eq!(&png[1..4], b"PNG");
+    // A malformed exact value is refused before anything runs.
+    let (code, text) = plugflow(&[
+        "study",
+        case.to_str().unwrap(),
+        "--vary",
+        "coupling.interval=5e-5,1e-4",
+        "--exact",
+        "pressure_drop_hpa_per_m",
+    ]);
+    assert_eq!(code, 2, "{text}");
+    assert!(text.contains("--exact"), "{text}");
+    std::fs::remove_dir_all(&out).ok();
 }

@@ -204,6 +204,8 @@ pub struct AbiBackend {
     radius: Vec<Real>,
     mass: Vec<Real>,
     flat: Vec<f64>,
+    /// Wall time in the engine's calls: stepping, reading the grains back, setting forces.
+    timer: crate::timing::StageTimer,
     _lib: libloading::Library,
 }
 
@@ -298,6 +300,7 @@ impl AbiBackend {
             radius: Vec::new(),
             mass: Vec::new(),
             flat: Vec::new(),
+            timer: crate::timing::StageTimer::new(),
             _lib: lib,
         };
         me.refresh().map_err(|e| LoadError::Create {
@@ -424,8 +427,10 @@ impl DemBackend for AbiBackend {
     }
 
     fn advance(&mut self, steps: u64) -> Result<(), BackendError> {
+        let t0 = std::time::Instant::now();
         // SAFETY: live handle.
         let st = unsafe { (self.calls.advance)(self.handle, steps) };
+        self.timer.add("dem_advance", t0.elapsed().as_secs_f64());
         if st == status::NON_FINITE {
             // Keep the engine's own words: they name the step and the grain.
             let message = read_error(self.calls.last_error, self.handle);
@@ -442,7 +447,10 @@ impl DemBackend for AbiBackend {
         // SAFETY: live handle, valid out-pointer.
         let st = unsafe { (self.calls.remove)(self.handle, &mut m) };
         self.check(st, "pf_dem_remove_past_outlet")?;
-        self.refresh()
+        let t1 = std::time::Instant::now();
+        let r = self.refresh();
+        self.timer.add("dem_read", t1.elapsed().as_secs_f64());
+        r
     }
 
     fn particles(&self) -> ParticleView<'_> {
@@ -461,10 +469,11 @@ impl DemBackend for AbiBackend {
         force: &[Vec3],
         implicit: Option<ImplicitDrag<'_>>,
     ) -> Result<(), BackendError> {
+        let t0 = std::time::Instant::now();
         let n = force.len();
         self.flat.clear();
         self.flat.extend(force.iter().flatten());
-        match implicit {
+        let r = match implicit {
             None => {
                 // SAFETY: flat holds 3 n values.
                 let st = unsafe { (self.calls.set_forces)(self.handle, n, self.flat.as_ptr()) };
@@ -497,7 +506,9 @@ impl DemBackend for AbiBackend {
                 };
                 self.check(st, "pf_dem_set_implicit_drag")
             }
-        }
+        };
+        self.timer.add("dem_set_forces", t0.elapsed().as_secs_f64());
+        r
     }
 
     fn insert(&mut self, particles: &[NewParticle]) -> Result<Vec<u64>, BackendError> {
@@ -554,8 +565,9 @@ impl DemBackend for AbiBackend {
             .collect()
     }
 
+    /// Wall time in the engine's calls, as seen from this side of the ABI.
     fn stage_times(&self) -> Vec<(String, f64)> {
-        Vec::new()
+        self.timer.entries()
     }
 
     fn flow(&self) -> Option<crate::backend::GrainFlow> {

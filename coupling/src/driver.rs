@@ -129,10 +129,22 @@ pub struct Coupler {
     /// Node-steps whose porosity was clamped, and node-steps in all.
     pub clamped: u64,
     pub node_steps: u64,
+    /// Node-steps clamped up to φ_min (over-packed nodes).
+    pub clamped_low: u64,
     /// Largest relative gas-mass imbalance of any step.
     pub mass_error_max: Real,
+    /// Step-doubling estimates of the gas time error: how many, their largest and sum.
+    pub doubling_checks: u64,
+    pub doubling_max: Real,
+    pub doubling_sum: Real,
+    /// Exchanges so far.
+    exchanges: u64,
     forces: Vec<Vec3>,
 }
+
+/// Every this many exchanges the gas step is also taken as two half steps (from the same
+/// state, discarded) to estimate its time error: three extra gas steps per hundred.
+pub const DOUBLING_EVERY: u64 = 100;
 
 impl Coupler {
     /// Couple `gas` and `drag` with `substeps` DEM steps of `dem_dt` per exchange.
@@ -153,7 +165,12 @@ impl Coupler {
             timer: StageTimer::new(),
             clamped: 0,
             node_steps: 0,
+            clamped_low: 0,
             mass_error_max: 0.0,
+            doubling_checks: 0,
+            doubling_max: 0.0,
+            doubling_sum: 0.0,
+            exchanges: 0,
             forces: Vec::new(),
         }
     }
@@ -170,10 +187,21 @@ impl Coupler {
             self.timer.add("deposit", t.elapsed().as_secs_f64());
         }
         let nodes = grid.len();
+        if self.exchanges.is_multiple_of(DOUBLING_EVERY) {
+            let t = std::time::Instant::now();
+            if let Some(e) = self.gas.step_doubling_error(&self.fields, self.interval)? {
+                self.doubling_checks += 1;
+                self.doubling_max = self.doubling_max.max(e);
+                self.doubling_sum += e;
+            }
+            self.timer.add("accuracy_check", t.elapsed().as_secs_f64());
+        }
+        self.exchanges += 1;
         let t = std::time::Instant::now();
         let report = self.gas.step(&self.fields, self.interval)?;
         self.timer.add("gas", t.elapsed().as_secs_f64());
         self.clamped += report.clamped_nodes as u64;
+        self.clamped_low += report.clamped_low_nodes as u64;
         self.node_steps += nodes as u64;
         self.mass_error_max = self.mass_error_max.max(report.mass_error_rel);
         let t = std::time::Instant::now();

@@ -9,6 +9,8 @@ use crate::{Real, Vec3};
 pub struct GasStepReport {
     /// Nodes whose porosity was clamped into [φ_min, φ_max] this step.
     pub clamped_nodes: usize,
+    /// Of those, the nodes below φ_min (more solid than the model allows: over-packed).
+    pub clamped_low_nodes: usize,
     /// |storage change − boundary fluxes − sources| / |inflow| of this step.
     pub mass_error_rel: Real,
 }
@@ -46,4 +48,14 @@ pub trait GasSolver {
     fn pressure_gradient(&self) -> Vec<Vec3>;
     /// Pressure drop from inlet to outlet per length, Pa/m.
     fn pressure_drop_per_length(&self) -> Real;
+    /// A cheap estimate of the time-discretisation error of a step of `dt` from the
+    /// current state: max |P'(one step of dt) − P'(two steps of dt/2)| over max |P'|, the
+    /// solver's state left as it was. None for solvers that do not provide it.
+    fn step_doubling_error(
+        &mut self,
+        _fields: &GranularFields,
+        _dt: Real,
+    ) -> Result<Option<Real>, GasError> {
+        Ok(None)
+    }
 }

@@ -147,6 +147,8 @@ pub struct IsolatedBackend {
     flow: Option<GrainFlow>,
     walls: Vec<WallForce>,
     dead: Option<String>,
+    /// Wall time of the requests (the engine's work plus the pipe), by call.
+    timer: crate::timing::StageTimer,
 }
 
 impl IsolatedBackend {
@@ -193,6 +195,7 @@ impl IsolatedBackend {
             flow: None,
             walls: Vec::new(),
             dead: None,
+            timer: crate::timing::StageTimer::new(),
         };
         let lib = library.display().to_string();
         me.request(|w| {
@@ -348,11 +351,15 @@ impl DemBackend for IsolatedBackend {
         self.steps
     }
     fn advance(&mut self, steps: u64) -> Result<(), BackendError> {
-        self.request(|w| {
-            w.u8(op::ADVANCE)?;
-            w.u64(steps)
-        })
-        .map(|_| ())
+        let t0 = std::time::Instant::now();
+        let r = self
+            .request(|w| {
+                w.u8(op::ADVANCE)?;
+                w.u64(steps)
+            })
+            .map(|_| ());
+        self.timer.add("dem_advance", t0.elapsed().as_secs_f64());
+        r
     }
     fn particles(&self) -> ParticleView<'_> {
         ParticleView {
@@ -413,7 +420,7 @@ impl DemBackend for IsolatedBackend {
         self.walls.clone()
     }
     fn stage_times(&self) -> Vec<(String, f64)> {
-        Vec::new()
+        self.timer.entries()
     }
     fn flow(&self) -> Option<GrainFlow> {
         self.flow

@@ -6,7 +6,9 @@
 
 pub mod config;
 pub mod contact;
+pub mod external;
 pub mod forces;
+pub mod inlet;
 pub mod neighbor;
 pub mod placement;
 pub mod state;
@@ -24,11 +26,12 @@ use plugflow_coupling::{
 
 use self::contact::{NormalLaw, TangentialLaw};
 use self::forces::{chunk_forces, ChunkOut, GrainsIn, Laws, Spill, StepSettings, UniformPair};
+use self::inlet::{draw_radius, leave_verdict, Feeder, Leave};
 use self::neighbor::{CellGrid, NeighborList};
-use self::placement::{place, Region};
+use self::placement::place;
 use self::state::ParticleState;
 use self::team::{Shared, Team, TeamThreads};
-use self::vec3::{dot, is_finite, norm2, scale, sub};
+use self::vec3::{dot, is_finite, norm2, sub};
 use crate::rng::Rng;
 use crate::{Real, Vec3};
 
@@ -55,10 +58,6 @@ pub struct FlowCounters {
     pub outflow_mass: Real,
     /// Grains that left through the open inlet end or the box, or escaped the tube.
     pub lost_count: u64,
-    /// Grains the inlet owes (rate × time − fed).
-    pub inlet_backlog: Real,
-    /// Simulated time during which the inlet slab was blocked with grains owed, s.
-    pub inlet_blocked_time: Real,
 }
 
 /// The built-in DEM engine.
@@ -73,8 +72,8 @@ pub struct NativeDem {
     next_id: u64,
     rng: Rng,
     rebuild_pending: bool,
-    /// The inlet slab was full: no new placement attempt before this time, s.
-    feed_retry_at: Real,
+    /// The inlet's bookkeeping.
+    feeder: Feeder,
     /// Inflow/outflow counters.
     pub flow: FlowCounters,
     wall_force: Vec<Vec3>,
@@ -110,7 +109,7 @@ impl NativeDem {
             step: 0,
             next_id: 0,
             rebuild_pending: true,
-            feed_retry_at: 0.0,
+            feeder: Feeder::default(),
             flow: FlowCounters::default(),
             wall_force: vec![[0.0; 3]; nw],
             chunk_wall_force: vec![vec![[0.0; 3]; nw]; cfg.threads],
@@ -133,7 +132,9 @@ impl NativeDem {
             cfg,
         };
         if let Some(init) = dem.cfg.initial.clone() {
-            let radii: Vec<Real> = (0..init.count).map(|_| dem.draw_radius()).collect();
+            let radii: Vec<Real> = (0..init.count)
+                .map(|_| draw_radius(&dem.cfg, &mut dem.rng))
+                .collect();
             let placed = place(&init.region, &radii, &[], &mut dem.rng, 20_000);
             if placed.len() < radii.len() {
                 return Err(crate::scene::SceneError::field(
@@ -169,14 +170,6 @@ impl NativeDem {
     /// Neighbour-list builds so far.
     pub fn neighbor_builds(&self) -> u64 {
         self.nlist.builds
-    }
-
-    fn draw_radius(&mut self) -> Real {
-        if self.cfg.radius_max > self.cfg.radius_min {
-            self.rng.range(self.cfg.radius_min, self.cfg.radius_max)
-        } else {
-            self.cfg.radius_min
-        }
     }
 
     /// Number of grains whose centre lies inside the tube (0 ≤ s ≤ L); all grains without a tube.
@@ -233,107 +226,52 @@ impl NativeDem {
         self.bounds.push(n);
     }
 
-    /// Feed the grains owed into the free space of the inlet slab (never overlapping a
-    /// grain already there). A slab packed full blocks the feed; the backlog carries over
-    /// and the blocked time is counted.
+    /// Feed the grains the inlet owes (see [`Feeder::feed`]).
     fn feed(&mut self, elapsed: Real) {
-        let (Some(inlet), Some(tube)) = (self.cfg.inlet, self.cfg.tube) else {
-            return;
-        };
-        self.flow.inlet_backlog += inlet.rate * elapsed;
-        if self.flow.inlet_backlog < 1.0 || self.time < self.feed_retry_at {
-            if self.flow.inlet_backlog > 2.0 * inlet.batch_target as Real {
-                self.flow.inlet_blocked_time += elapsed;
-            }
-            return;
-        }
-        let reach = inlet.slab_length + 2.0 * self.cfg.radius_max;
-        let existing: Vec<(Vec3, Real)> = self
-            .state
-            .position
-            .iter()
-            .zip(&self.state.radius)
-            .filter(|(x, r)| dot(sub(**x, tube.origin), tube.axis) - **r < reach)
-            .map(|(x, r)| (*x, *r))
-            .collect();
-        let want = (self.flow.inlet_backlog.floor() as usize).min(inlet.batch_target);
-        let radii: Vec<Real> = (0..want).map(|_| self.draw_radius()).collect();
-        let region = Region::TubeStretch {
-            origin: tube.origin,
-            axis: tube.axis,
-            radius: tube.radius,
-            from: 0.0,
-            to: inlet.slab_length,
-        };
-        let placed = place(&region, &radii, &existing, &mut self.rng, 300);
-        if placed.len() < want {
-            // The slab is full: look again after the grains have had time to move
-            // (a hundredth of the slab at the feed velocity, at least 1 ms).
-            self.feed_retry_at = self.time + (0.01 * inlet.slab_length / inlet.velocity).max(1e-3);
-            if self.flow.inlet_backlog > 2.0 * inlet.batch_target as Real {
-                self.flow.inlet_blocked_time += elapsed;
-            }
-        }
+        let placed = self.feeder.feed(
+            &self.cfg,
+            self.time,
+            elapsed,
+            self.state
+                .position
+                .iter()
+                .zip(&self.state.radius)
+                .map(|(x, r)| (*x, *r)),
+            &mut self.rng,
+        );
         if placed.is_empty() {
             return;
         }
         if self.cfg.laws.uses_history() {
             self.nlist.stash_history(&self.state);
         }
-        let v = scale(tube.axis, inlet.velocity);
+        let v = Feeder::velocity(&self.cfg);
         let nw = self.cfg.walls.len();
-        for (x, r) in placed.iter().zip(&radii) {
+        for (x, r) in placed {
             let id = self.next_id;
             self.next_id += 1;
-            self.state.push(id, *x, v, *r, self.cfg.density, nw);
+            self.state.push(id, x, v, r, self.cfg.density, nw);
             self.flow.fed_count += 1;
             self.flow.fed_mass += *self.state.mass.last().expect("just pushed");
         }
-        self.flow.inlet_backlog -= placed.len() as Real;
         self.rebuild_pending = true;
-    }
-
-    /// Where grain i goes: stays, leaves through the outlet, or is lost.
-    fn leave_verdict(&self, i: usize) -> Leave {
-        let x = self.state.position[i];
-        let r = self.state.radius[i];
-        match &self.cfg.tube {
-            Some(t) => {
-                let rel = sub(x, t.origin);
-                let s = dot(rel, t.axis);
-                let radial2 = norm2(sub(rel, scale(t.axis, s)));
-                if t.outlet_open && s > t.length {
-                    Leave::Outlet
-                } else if (t.inlet_open && s < 0.0)
-                    || radial2 > (t.radius + 2.0 * r).powi(2)
-                    || s < -t.length
-                    || s > 2.0 * t.length
-                {
-                    Leave::Lost
-                } else {
-                    Leave::Stay
-                }
-            }
-            None => {
-                if (0..3).any(|k| x[k] < self.cfg.box_lo[k] || x[k] > self.cfg.box_hi[k]) {
-                    Leave::Lost
-                } else {
-                    Leave::Stay
-                }
-            }
-        }
     }
 
     /// Remove grains past open ends, outside the box, or escaped from the tube.
     fn remove_leaving(&mut self) -> Real {
         let n = self.state.len();
-        if (0..n).all(|i| matches!(self.leave_verdict(i), Leave::Stay)) {
+        if (0..n).all(|i| {
+            matches!(
+                leave_verdict(&self.cfg, self.state.position[i], self.state.radius[i]),
+                Leave::Stay
+            )
+        }) {
             return 0.0;
         }
         let mut keep: Vec<usize> = Vec::with_capacity(n);
         let mut out_mass = 0.0;
         for i in 0..n {
-            match self.leave_verdict(i) {
+            match leave_verdict(&self.cfg, self.state.position[i], self.state.radius[i]) {
                 Leave::Stay => keep.push(i),
                 Leave::Outlet => {
                     self.flow.outflow_count += 1;
@@ -695,12 +633,6 @@ impl ForceJob<'_> {
     }
 }
 
-enum Leave {
-    Stay,
-    Outlet,
-    Lost,
-}
-
 impl DemBackend for NativeDem {
     fn engine_name(&self) -> &str {
         "native"
@@ -838,8 +770,8 @@ impl DemBackend for NativeDem {
     fn diagnostics(&self) -> Vec<(String, f64)> {
         vec![
             ("neighbor_builds".into(), self.neighbor_builds() as f64),
-            ("inlet_backlog_grains".into(), self.flow.inlet_backlog),
-            ("inlet_blocked_time_s".into(), self.flow.inlet_blocked_time),
+            ("inlet_backlog_grains".into(), self.feeder.backlog),
+            ("inlet_blocked_time_s".into(), self.feeder.blocked_time),
         ]
     }
 

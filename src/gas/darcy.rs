@@ -181,15 +181,19 @@ impl DarcyGas {
         self.last_dt = None;
     }
 
-    /// Fill conductances, storage and sources for the fields of this step.
-    fn assemble(&mut self, fields: &GranularFields) -> usize {
+    /// Fill conductances, storage and sources for the fields of this step; the nodes whose
+    /// porosity was clamped (all, and those below φ_min: over-packed).
+    fn assemble(&mut self, fields: &GranularFields) -> (usize, usize) {
         let g = &self.grid;
         let pr = &self.params;
-        let mut clamped = 0;
+        let (mut clamped, mut low) = (0, 0);
         for (n, &phi) in fields.porosity.iter().enumerate() {
             let c = phi.clamp(pr.porosity_min, pr.porosity_max);
             if c != phi {
                 clamped += 1;
+                if phi < pr.porosity_min {
+                    low += 1;
+                }
             }
             self.phi[n] = c;
         }
@@ -243,7 +247,7 @@ impl DarcyGas {
                 self.source[n] -= pr.p0 * flux;
             }
         }
-        clamped
+        (clamped, low)
     }
 
     /// Component of a lab-frame vector along grid direction `d`.
@@ -400,7 +404,7 @@ impl GasSolver for DarcyGas {
 
     fn step(&mut self, fields: &GranularFields, dt: Real) -> Result<GasStepReport, GasError> {
         let n = self.grid.len();
-        let clamped = self.assemble(fields);
+        let (clamped, clamped_low) = self.assemble(fields);
         let step = self.steps + 1;
         let bdf2 = self.params.scheme == Scheme::Bdf2
             && self.last_dt.is_some_and(|h| (h - dt).abs() <= 1e-12 * dt);
@@ -488,12 +492,52 @@ impl GasSolver for DarcyGas {
         self.steps = step;
         Ok(GasStepReport {
             clamped_nodes: clamped,
+            clamped_low_nodes: clamped_low,
             mass_error_rel,
         })
     }
 
     fn pressure(&self) -> &[Real] {
         &self.p
+    }
+
+    fn step_doubling_error(
+        &mut self,
+        fields: &GranularFields,
+        dt: Real,
+    ) -> Result<Option<Real>, GasError> {
+        // What a step changes: pressures, the scheme's memory, the step count and the
+        // porosity it used (scratch arrays are rebuilt by every step).
+        let saved = (
+            self.p.clone(),
+            self.p_prev.clone(),
+            self.last_dt,
+            self.steps,
+            self.phi.clone(),
+        );
+        let restore = |me: &mut Self, s: &(Vec<Real>, Vec<Real>, Option<Real>, u64, Vec<Real>)| {
+            me.p.clone_from(&s.0);
+            me.p_prev.clone_from(&s.1);
+            me.last_dt = s.2;
+            me.steps = s.3;
+            me.phi.clone_from(&s.4);
+        };
+        let one = self.step(fields, dt).map(|_| self.p.clone());
+        restore(self, &saved);
+        let two = one.and_then(|one| {
+            self.step(fields, 0.5 * dt)?;
+            self.step(fields, 0.5 * dt)?;
+            Ok(one)
+        });
+        let half = self.p.clone();
+        restore(self, &saved);
+        let one = two?;
+        let scale = half.iter().fold(0.0_f64, |m, x| m.max(x.abs()));
+        let diff = one
+            .iter()
+            .zip(&half)
+            .fold(0.0_f64, |m, (a, b)| m.max((a - b).abs()));
+        Ok(Some(if scale > 0.0 { diff / scale } else { diff }))
     }
 
     fn porosity(&self) -> &[Real] {

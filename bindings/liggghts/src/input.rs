@@ -2,6 +2,7 @@
 //! scene this mapping cannot express exactly is refused with the field and the reason.
 
 use plugflow::dem::config::LawSet;
+use plugflow::dem::external::{beta_form_restitution, linear_pairs, single_grain_mass, LinearPair};
 use plugflow::dem::walls::WallShape;
 use plugflow::dem::DemConfig;
 use plugflow::scene::Scene;
@@ -57,17 +58,6 @@ pub struct Mapped {
     pub inlet_end_open: Option<Outlet>,
 }
 
-/// Contact constants of one material pair, as LIGGGHTS's `hooke/stiffness` with absolute
-/// damping takes them.
-#[derive(Debug, Clone, Copy)]
-struct Pair {
-    kn: f64,
-    kt: f64,
-    gamma_n: f64,
-    gamma_t: f64,
-    mu: f64,
-}
-
 fn axis_index(axis: [f64; 3]) -> Option<(usize, f64)> {
     (0..3).find_map(|k| {
         let others = (0..3).filter(|&j| j != k).all(|j| axis[j].abs() < 1e-12);
@@ -79,77 +69,36 @@ const AXES: [&str; 3] = ["x", "y", "z"];
 
 /// Map a checked scene.
 pub fn map(scene: &Scene, cfg: &DemConfig) -> Result<Mapped, Refusal> {
-    if (cfg.radius_max - cfg.radius_min).abs() > 1e-15 * cfg.radius_max {
+    let Some(m) = single_grain_mass(cfg) else {
         return Err(refuse(
             "particles.diameter_min",
             "grains of several sizes are not mapped (the damping per material pair is exact \
              for one size only); give `particles.diameter`",
         ));
-    }
-    let r = cfg.radius_min;
-    let rho = cfg.density;
-    let m = rho * 4.0 / 3.0 * std::f64::consts::PI * r * r * r;
-    // Effective masses as the built-in engine uses them: m/2 for a pair, m against a wall.
-    let (m_pp, m_pw) = (0.5 * m, m);
+    };
+    let (r, rho) = (cfg.radius_min, cfg.density);
     // Hertz: (E, ν, e_L grain–grain, e_L grain–wall) for LIGGGHTS's own `model hertz`.
     let mut hertz: Option<(f64, f64, f64, f64)> = None;
     let (pp, pw, history) = match &cfg.laws {
-        LawSet::HookeHistory(l) => (
-            Pair {
-                kn: l.pp_normal.kn,
-                kt: l.pp_normal.kt,
-                gamma_n: 2.0 * l.pp_normal.zeta * (l.pp_normal.kn * m_pp).sqrt(),
-                gamma_t: 2.0 * l.pp_normal.zeta * (l.pp_normal.kt * m_pp).sqrt(),
-                mu: l.pp_tangential.mu,
-            },
-            Pair {
-                kn: l.pw_normal.kn,
-                kt: l.pw_normal.kt,
-                gamma_n: 2.0 * l.pw_normal.zeta * (l.pw_normal.kn * m_pw).sqrt(),
-                gamma_t: 2.0 * l.pw_normal.zeta * (l.pw_normal.kt * m_pw).sqrt(),
-                mu: l.pw_tangential.mu,
-            },
-            true,
-        ),
-        LawSet::HookeCoulomb(l) => {
+        LawSet::HookeHistory(_) | LawSet::HookeCoulomb(_) => {
             // The seeds' regularised Coulomb law min(μ F_n, γ_t |v_t|) is LIGGGHTS's
-            // `tangential no_history` with γ_t = γ_n unless the scene gives γ_t.
-            let gn_pp = 2.0 * l.pp_normal.zeta * (l.pp_normal.kn * m_pp).sqrt();
-            let gn_pw = 2.0 * l.pw_normal.zeta * (l.pw_normal.kn * m_pw).sqrt();
-            (
-                Pair {
-                    kn: l.pp_normal.kn,
-                    kt: l.pp_normal.kt,
-                    gamma_n: gn_pp,
-                    gamma_t: l.pp_tangential.gamma_t.unwrap_or(gn_pp),
-                    mu: l.pp_tangential.mu,
-                },
-                Pair {
-                    kn: l.pw_normal.kn,
-                    kt: l.pw_normal.kt,
-                    gamma_n: gn_pw,
-                    gamma_t: l.pw_tangential.gamma_t.unwrap_or(gn_pw),
-                    mu: l.pw_tangential.mu,
-                },
-                false,
-            )
+            // `tangential no_history`.
+            let (pp, pw) = linear_pairs(cfg).expect("one grain size, Hooke");
+            (pp, pw, cfg.laws.uses_history())
         }
         LawSet::HertzHistory(l) => {
             // LIGGGHTS's `model hertz` damps with γ = −2√(5/6) β √(S_n m*), S_n = 2Y*√(Rδ):
-            // the Tsuji form of the built-in engine (γ = α √(2/3) √(S_n m*)) when
-            // β = −α/√5. β comes from LIGGGHTS's coefficientRestitution, so give it the
-            // e_L with that β: e_L = exp(β π / √(1 − β²)). k_n = 4/3 Y*√(Rδ), k_t = 8G*√(Rδ)
-            // and the tangential damping follow from the same E, ν and β in both engines.
+            // the built-in Tsuji form with the restitution of `beta_form_restitution`.
+            // k_n = 4/3 Y*√(Rδ), k_t = 8G*√(Rδ) and the tangential damping follow from the
+            // same E, ν and β in both engines.
             let e_of = |alpha: f64, field: &str| -> Result<f64, Refusal> {
-                let beta = -alpha / 5f64.sqrt();
-                if beta <= -1.0 {
-                    return Err(refuse(
+                beta_form_restitution(alpha).ok_or_else(|| {
+                    refuse(
                         field,
                         "this restitution needs more damping than LIGGGHTS's Hertz model can \
                          express (|β| ≥ 1)",
-                    ));
-                }
-                Ok((beta * std::f64::consts::PI / (1.0 - beta * beta).sqrt()).exp())
+                    )
+                })
             };
             let c = &scene.file.contact;
             hertz = Some((
@@ -158,7 +107,7 @@ pub fn map(scene: &Scene, cfg: &DemConfig) -> Result<Mapped, Refusal> {
                 e_of(l.pp_normal.alpha, "contact.restitution")?,
                 e_of(l.pw_normal.alpha, "contact.wall_restitution")?,
             ));
-            let unused = Pair {
+            let unused = LinearPair {
                 kn: 0.0,
                 kt: 0.0,
                 gamma_n: 0.0,
@@ -167,7 +116,7 @@ pub fn map(scene: &Scene, cfg: &DemConfig) -> Result<Mapped, Refusal> {
             };
             (
                 unused,
-                Pair {
+                LinearPair {
                     mu: l.pw_tangential.mu,
                     ..unused
                 },

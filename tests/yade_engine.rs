@@ -1,0 +1,213 @@
+//! YADE as a user meets it: from the command line, refusing what its laws cannot express,
+//! one simulation per process, and in `plugflow crosscheck` beside the other two engines.
+//! The engine comparisons themselves are in tests/cross_code.rs. The README's test command
+//! installs YADE and builds `libplugflow_dem_yade.so` (`--features plugflow-dem-yade/yade`).
+
+mod common;
+use common::plugflow;
+use std::path::{Path, PathBuf};
+use std::sync::Mutex;
+
+use plugflow::scene::Scene;
+use plugflow_coupling::abi::AbiBackend;
+use plugflow_coupling::DemBackend;
+
+/// One YADE per process (its Omega is a singleton): the in-process tests run one at a time.
+static SERIAL: Mutex<()> = Mutex::new(());
+
+fn root() -> &'static Path {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+}
+
+fn shim() -> PathBuf {
+    let exe = std::env::current_exe().unwrap();
+    let lib = exe
+        .parent()
+        .unwrap()
+        .parent()
+        .unwrap()
+        .join("libplugflow_dem_yade.so");
+    assert!(
+        lib.exists(),
+        "{} is not built: run the README's test command (bash scripts/test-all.sh), or \
+         cargo build --release -p plugflow-dem-yade --features yade",
+        lib.display()
+    );
+    lib
+}
+
+fn vertical(extra: &[&str]) -> Scene {
+    let mut set = vec!["dem.threads=1".to_string()];
+    set.extend(extra.iter().map(|s| s.to_string()));
+    Scene::load(&root().join("cases/vertical_plug.toml"), &set).unwrap()
+}
+
+/// `--set dem.engine=yade` runs a case on YADE from the command line; the summary names
+/// the engine and its version, and the inlet feeds at the scene's rate.
+#[test]
+fn cli_runs_a_case_on_yade() {
+    shim();
+    let out = std::env::temp_dir().join(format!("plugflow-yade-cli-{}", std::process::id()));
+    let (code, text) = plugflow(&[
+        "run",
+        root().join("cases/vertical_plug.toml").to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+        "--duration",
+        "0.3",
+        "--set",
+        "dem.engine=yade",
+        "--set",
+        "contact.tangential=history",
+        "--quiet",
+    ]);
+    assert_eq!(code, 0, "{text}");
+    let s: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
+    assert_eq!(s["engine"], "yade");
+    assert!(
+        s["engine_version"].as_str().unwrap().starts_with("YADE 20"),
+        "{}",
+        s["engine_version"]
+    );
+    // 0.3 s at 514 grains/s: about 150 grains fed, all still in the tube.
+    let fed = s["grains_fed"].as_f64().unwrap();
+    assert!((100.0..=200.0).contains(&fed), "{fed} grains fed");
+    assert!(
+        s["stage_times_s"]["dem_advance"].as_f64().unwrap() > 0.0,
+        "{s}"
+    );
+    std::fs::remove_dir_all(&out).ok();
+}
+
+/// The seeds' regularised Coulomb law has no YADE counterpart: the run stops before it
+/// starts, naming the field and the reason.
+#[test]
+fn what_yade_cannot_express_is_refused() {
+    shim();
+    let (code, text) = plugflow(&[
+        "run",
+        root().join("cases/vertical_plug.toml").to_str().unwrap(),
+        "--set",
+        "dem.engine=yade",
+        "--quiet",
+    ]);
+    assert_eq!(code, 2, "{text}");
+    assert!(
+        text.contains("contact.tangential") && text.contains("YADE"),
+        "{text}"
+    );
+    // A tube along a skew axis: YADE's polygon tube is built along x, y or z.
+    let (code, text) = plugflow(&[
+        "run",
+        root().join("cases/vertical_plug.toml").to_str().unwrap(),
+        "--set",
+        "dem.engine=yade",
+        "--set",
+        "contact.tangential=history",
+        "--set",
+        "tube.axis=[0, 0.6, 0.8]",
+        "--set",
+        "gravity=[0, -5.886, -7.848]",
+        "--quiet",
+    ]);
+    assert_eq!(code, 2, "{text}");
+    assert!(text.contains("tube.axis"), "{text}");
+}
+
+/// YADE's Omega is one per process: a second engine while one is open is refused with the
+/// way out (`dem.isolate`), and after the first is closed a new one opens and starts fresh.
+#[test]
+fn one_yade_per_process() {
+    let _g = SERIAL.lock().unwrap_or_else(|p| p.into_inner());
+    let s = vertical(&["contact.tangential=history"]);
+    let mut first = AbiBackend::load(&shim(), &s.to_json()).unwrap_or_else(|e| panic!("{e}"));
+    first.advance(200).unwrap();
+    assert!(first.step_count() == 200);
+    let second = AbiBackend::load(&shim(), &s.to_json());
+    let err = second
+        .err()
+        .expect("a second YADE in one process is refused");
+    assert!(
+        err.to_string().contains("one simulation per process")
+            && err.to_string().contains("dem.isolate"),
+        "{err}"
+    );
+    drop(first);
+    let again = AbiBackend::load(&shim(), &s.to_json()).unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(again.step_count(), 0);
+    assert_eq!(again.particles().len(), 0);
+}
+
+/// `plugflow crosscheck --engines native,liggghts,yade` writes the three-engine report;
+/// an engine that refuses the scene stops it before anything runs.
+#[test]
+fn crosscheck_on_three_engines() {
+    shim();
+    let scene = root().join("cases/vertical_plug.toml");
+    let out = std::env::temp_dir().join(format!("plugflow-crosscheck3-{}", std::process::id()));
+    let (code, text) = plugflow(&[
+        "crosscheck",
+        scene.to_str().unwrap(),
+        "--engines",
+        "native,liggghts,yade",
+        "--duration",
+        "0.5",
+        "--set",
+        "output.settling_time=0.3 s",
+        "--set",
+        "contact.tangential=history",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert_eq!(code, 0, "{text}");
+    let md = std::fs::read_to_string(out.join("crosscheck.md")).unwrap();
+    assert!(
+        md.contains("| quantity | native | liggghts | yade | spread |"),
+        "{md}"
+    );
+    assert!(
+        md.contains("LIGGGHTS-PUBLIC") && md.contains("YADE 20"),
+        "{md}"
+    );
+    // Grains in the tube after 0.5 s: all engines feed 2.49 kg/h (cross_code (d): within
+    // 15 % after 1 s).
+    let row = md
+        .lines()
+        .find(|l| l.starts_with("| grains in the tube"))
+        .unwrap();
+    let spread: f64 = row
+        .rsplit('|')
+        .nth(1)
+        .unwrap()
+        .trim()
+        .trim_end_matches(" %")
+        .parse()
+        .unwrap();
+    assert!(spread < 15.0, "{row}");
+    assert!(out.join("crosscheck.png").exists());
+    // The case's own regularised Coulomb law: YADE refuses it up front, nothing runs.
+    let (code, text) = plugflow(&[
+        "crosscheck",
+        scene.to_str().unwrap(),
+        "--engines",
+        "native,yade",
+        "--out",
+        out.join("refused").to_str().unwrap(),
+    ]);
+    assert_eq!(code, 2, "{text}");
+    assert!(text.contains("contact.tangential"), "{text}");
+    assert!(!out.join("refused").join("native").exists());
+    // An engine this build does not know.
+    let (code, text) = plugflow(&[
+        "crosscheck",
+        scene.to_str().unwrap(),
+        "--engines",
+        "native,nosuchengine",
+        "--out",
+        out.join("bad").to_str().unwrap(),
+    ]);
+    assert_eq!(code, 2, "{text}");
+    assert!(text.contains("nosuchengine"), "{text}");
+    std::fs::remove_dir_all(&out).ok();
+}
