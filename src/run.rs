@@ -265,11 +265,19 @@ pub fn run(scene: &Scene, opts: &RunOptions) -> Result<RunOutcome, RunError> {
                             .collect()
                     })
                 });
+                // The grains' contact forces (grain–grain and wall) along the axis, where the
+                // engine gives them.
+                let contact: Option<Vec<Real>> = dem.contact_forces().map(|c| {
+                    c.iter()
+                        .map(|f| (0..3).map(|k| f[k] * t.axis[k]).sum())
+                        .collect()
+                });
                 pr.add_frame(
                     p.position,
                     p.velocity,
                     p.radius,
                     axial.as_deref(),
+                    contact.as_deref(),
                     &tr.observations[plugs_before..],
                 );
             }
@@ -523,6 +531,7 @@ pub fn run(scene: &Scene, opts: &RunOptions) -> Result<RunOutcome, RunError> {
                     "granular_temperature_m2_s2": res.temperature,
                     "wall_normal_stress_pa": res.wall_stress,
                     "drag_n_m3": res.drag,
+                    "particle_force_n_m3": res.particle_force,
                     "ring_r_over_d": res.ring_r_over_d,
                     "ring_porosity": res.ring_porosity,
                     "ring_porosity_minima_r_over_d": rings_min,

@@ -151,6 +151,16 @@ fn run_h5_holds_the_run_and_vtk_matches_it() {
         .map(|v| v.as_f64().unwrap_or(f64::NAN))
         .collect();
     assert_eq!(rings.len(), listed.len());
+    // Drag and contact force along the plug: one value per axial bin each (the built-in
+    // engine gives its grains' contact forces).
+    let drag: Vec<f64> = f.dataset("profiles/drag").unwrap().read_raw().unwrap();
+    let contact: Vec<f64> = f
+        .dataset("profiles/particle_force")
+        .unwrap()
+        .read_raw()
+        .unwrap();
+    assert_eq!(drag.len(), contact.len());
+    assert!(drag.iter().chain(&contact).all(|x| x.is_finite()));
 
     // From Python, as users read it. test-all.sh installs h5py and sets
     // PLUGFLOW_REQUIRE_H5PY=1; elsewhere the check runs only where h5py imports.

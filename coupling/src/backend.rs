@@ -141,4 +141,9 @@ pub trait DemBackend {
     fn flow(&self) -> Option<GrainFlow> {
         None
     }
+    /// Per-grain contact force (grain–grain and walls) of the last step, N, in the order
+    /// of [`DemBackend::particles`]; None when the engine does not expose it.
+    fn contact_forces(&self) -> Option<Vec<Vec3>> {
+        None
+    }
 }

@@ -86,6 +86,9 @@ pub struct Profiles {
     sq: Vec<Real>,
     wall_force: Vec<Real>,
     drag: Vec<Real>,
+    particle_force: Vec<Real>,
+    /// Contact forces were given with the frames.
+    has_particle_force: bool,
     /// Plug-frames entered.
     pub plugs_used: u64,
     // Radial sums per ring.
@@ -112,6 +115,10 @@ pub struct ProfileResult {
     pub wall_stress: Vec<Real>,
     /// Axial drag per volume of tube, N/m³.
     pub drag: Vec<Real>,
+    /// Axial contact force (grain–grain and wall) per volume of tube, N/m³: what the grains
+    /// pass on to each other and the wall, beside the drag that drives them (empty when the
+    /// engine does not expose per-grain contact forces).
+    pub particle_force: Vec<Real>,
     /// Ring centres r/d and porosity in each ring (section 1.5 d high around plug centres).
     pub ring_r_over_d: Vec<Real>,
     pub ring_porosity: Vec<Real>,
@@ -151,6 +158,8 @@ impl Profiles {
             sq: vec![0.0; nb],
             wall_force: vec![0.0; nb],
             drag: vec![0.0; nb],
+            particle_force: vec![0.0; nb],
+            has_particle_force: false,
             plugs_used: 0,
             ring_solid: vec![0.0; rings],
             layer_solid_plug: vec![0.0; layers],
@@ -181,8 +190,12 @@ impl Profiles {
         v: &[Vec3],
         r: &[Real],
         fluid_axial: Option<&[Real]>,
+        contact_axial: Option<&[Real]>,
         plugs: &[PlugObservation],
     ) {
+        if contact_axial.is_some() {
+            self.has_particle_force = true;
+        }
         let t = self.tube;
         let (e1, e2) = plugflow_coupling::grid::perpendicular_basis(t.axis);
         // Axial position, cross-section coordinates of every grain.
@@ -241,6 +254,9 @@ impl Profiles {
                     self.wall_force[kc] += self.wall_kn * overlap;
                     if let Some(f) = fluid_axial {
                         self.drag[kc] += f[i];
+                    }
+                    if let Some(c) = contact_axial {
+                        self.particle_force[kc] += c[i];
                     }
                 }
                 // Rings: the section 1.5 d high around the centre.
@@ -367,6 +383,13 @@ impl Profiles {
                 .map(|k| self.wall_force[k] / n / wall_area)
                 .collect(),
             drag: (0..nb).map(|k| self.drag[k] / n / bin_volume).collect(),
+            particle_force: if self.has_particle_force {
+                (0..nb)
+                    .map(|k| self.particle_force[k] / n / bin_volume)
+                    .collect()
+            } else {
+                Vec::new()
+            },
             ring_r_over_d: (0..rings).map(|k| (k as Real + 0.5) * 0.25).collect(),
             ring_porosity,
             layer_h_over_d: (0..nl)
@@ -445,9 +468,24 @@ mod tests {
             grains: 40.0,
             velocity: Some(0.2),
         };
-        p.add_frame(&x, &v, &r, None, &[plug]);
+        // Every grain presses 1 µN up on its neighbours' side: the profile binned per tube
+        // volume integrates back to the total of the grains within its range.
+        let contact = vec![1e-6; x.len()];
+        p.add_frame(&x, &v, &r, None, Some(&contact), &[plug]);
         let res = p.result();
         assert_eq!(res.plugs_used, 1);
+        let bin_volume = std::f64::consts::PI * tube.radius * tube.radius * p.axial_bin;
+        let total: Real = res.particle_force.iter().sum::<Real>() * bin_volume;
+        let inside = x
+            .iter()
+            .filter(|q| ((q[2] - plug.centre + p.axial_half) / p.axial_bin).floor() >= 0.0)
+            .filter(|q| {
+                (((q[2] - plug.centre + p.axial_half) / p.axial_bin).floor() as usize)
+                    < res.xi.len()
+            })
+            .count() as Real;
+        assert!((total - 1e-6 * inside).abs() < 1e-15, "{total} vs {}", 1e-6 * inside);
+        assert!(res.drag.iter().all(|d| *d == 0.0));
         assert!(res.ring_porosity[0] < 0.5, "{:?}", res.ring_porosity);
         assert!(res
             .ring_porosity

@@ -775,6 +775,20 @@ impl DemBackend for NativeDem {
         ]
     }
 
+    /// The step's total force less gravity and the fluid force: what the contacts gave.
+    fn contact_forces(&self) -> Option<Vec<Vec3>> {
+        let s = &self.state;
+        let g = self.cfg.gravity;
+        Some(
+            (0..s.len())
+                .map(|i| {
+                    let (f, e, m) = (s.force[i], s.external_force[i], s.mass[i]);
+                    [0, 1, 2].map(|k| f[k] - m * g[k] - e[k])
+                })
+                .collect(),
+        )
+    }
+
     fn flow(&self) -> Option<plugflow_coupling::GrainFlow> {
         let f = &self.flow;
         Some(plugflow_coupling::GrainFlow {

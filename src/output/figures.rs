@@ -305,7 +305,7 @@ pub fn profiles(
             ],
         },
         Panel {
-            title: "wall normal stress, drag".into(),
+            title: "wall normal stress, drag, contact force".into(),
             x_label: "distance from plug centre (cm)".into(),
             y_label: "Pa, N/m³ / 100".into(),
             curves: vec![
@@ -315,6 +315,16 @@ pub fn profiles(
                     xy(
                         &xi_cm,
                         &r.drag.iter().map(|d| d / 100.0).collect::<Vec<_>>(),
+                    ),
+                ),
+                Curve::line(
+                    "axial contact force / 100",
+                    xy(
+                        &xi_cm,
+                        &r.particle_force
+                            .iter()
+                            .map(|d| d / 100.0)
+                            .collect::<Vec<_>>(),
                     ),
                 ),
             ],

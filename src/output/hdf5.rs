@@ -17,7 +17,7 @@
 //!                        (p)              one row per plug per frame (velocity NaN until
 //!                                         the plug has been seen twice)
 //! /profiles/{xi, porosity, granular_velocity, granular_temperature, wall_normal_stress,
-//!           drag, ring_r_over_d, ring_porosity, layer_height_over_d,
+//!           drag, particle_force, ring_r_over_d, ring_porosity, layer_height_over_d,
 //!           layer_porosity_in_plugs, layer_porosity_between_plugs}   written at the end
 //! /particles/NNNNNN      attrs time, step; id (n), position (n,3), velocity (n,3),
 //!                        angular_velocity (n,3), radius (n)   [only when the scene asks]
@@ -239,6 +239,7 @@ impl Hdf5Output {
             ("granular_temperature", &r.temperature, "m^2/s^2"),
             ("wall_normal_stress", &r.wall_stress, "Pa"),
             ("drag", &r.drag, "N/m^3"),
+            ("particle_force", &r.particle_force, "N/m^3"),
             ("ring_r_over_d", &r.ring_r_over_d, "1"),
             ("ring_porosity", &r.ring_porosity, "1"),
             ("layer_height_over_d", &r.layer_h_over_d, "1"),
