@@ -9,7 +9,7 @@ use plugflow_coupling::{BackendError, DemBackend, ParticleView};
 use serde_json::{json, Map, Value};
 
 use crate::analysis::plugs::{median, PlugObservation, PlugTracker, Slicer};
-use crate::analysis::profiles::{local_minima, PlugWindow, Profiles, TubeFrame};
+use crate::analysis::profiles::{local_minima, PlugWindow, Profiles, TubeFrame, WallSpring};
 use crate::analysis::targets;
 use crate::cosim::{check_json, coupling_from_scene};
 use crate::dem::config::LawSet;
@@ -151,11 +151,16 @@ pub fn run(scene: &Scene, opts: &RunOptions) -> Result<RunOutcome, RunError> {
         } else {
             plugflow_coupling::grid::perpendicular_basis(t.axis).1
         };
-        // The wall stress estimate needs a linear spring (Hooke); NaN otherwise.
-        let wall_kn = match &cfg.laws {
-            LawSet::HookeHistory(l) => l.pw_normal.kn,
-            LawSet::HookeCoulomb(l) => l.pw_normal.kn,
-            _ => Real::NAN,
+        // The grain–wall spring that turns overlaps into the wall stress profile.
+        let wall_spring = match &cfg.laws {
+            LawSet::HookeHistory(l) => WallSpring::Linear { kn: l.pw_normal.kn },
+            LawSet::HookeCoulomb(l) => WallSpring::Linear { kn: l.pw_normal.kn },
+            LawSet::HertzHistory(l) => WallSpring::Hertz {
+                y_star: l.pw_normal.y_star,
+            },
+            LawSet::HertzCoulomb(l) => WallSpring::Hertz {
+                y_star: l.pw_normal.y_star,
+            },
         };
         Profiles::new(
             TubeFrame {
@@ -166,7 +171,7 @@ pub fn run(scene: &Scene, opts: &RunOptions) -> Result<RunOutcome, RunError> {
                 length: t.length,
             },
             cfg.radius_min + cfg.radius_max,
-            wall_kn,
+            wall_spring,
             plug_window(&f.output),
         )
     });

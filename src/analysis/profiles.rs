@@ -35,6 +35,27 @@ fn ball_points() -> Vec<Vec3> {
         .collect()
 }
 
+/// The elastic normal force of a grain pressed δ into the tube wall, which turns the grains'
+/// overlaps with the wall into the wall normal stress profile (the dashpot is left out: the
+/// profile is dominated by grains resting on the wall).
+#[derive(Debug, Clone, Copy)]
+pub enum WallSpring {
+    /// F = k_n δ (Hooke), k_n of the grain–wall pair, N/m.
+    Linear { kn: Real },
+    /// F = 4/3 Y* √(r δ) δ (Hertz against a flat wall: r* = r), Y* in Pa.
+    Hertz { y_star: Real },
+}
+
+impl WallSpring {
+    /// Force of a grain of radius `r` overlapping the wall by `overlap` ≥ 0, N.
+    pub fn force(&self, r: Real, overlap: Real) -> Real {
+        match *self {
+            WallSpring::Linear { kn } => kn * overlap,
+            WallSpring::Hertz { y_star } => 4.0 / 3.0 * y_star * (r * overlap).sqrt() * overlap,
+        }
+    }
+}
+
 /// Which plugs enter the profiles.
 #[derive(Debug, Clone, Copy)]
 pub struct PlugWindow {
@@ -75,7 +96,7 @@ pub struct Profiles {
     tube: TubeFrame,
     diameter: Real,
     /// Grain–wall normal stiffness for the wall stress estimate, N/m.
-    wall_kn: Real,
+    wall: WallSpring,
     points: Vec<Vec3>,
     /// Axial bin width, m, and half range, m.
     pub axial_bin: Real,
@@ -136,7 +157,7 @@ fn dot(a: Vec3, b: Vec3) -> Real {
 
 impl Profiles {
     /// Profiles for grains of diameter `diameter` in `tube`.
-    pub fn new(tube: TubeFrame, diameter: Real, wall_kn: Real, window: PlugWindow) -> Self {
+    pub fn new(tube: TubeFrame, diameter: Real, wall: WallSpring, window: PlugWindow) -> Self {
         let axial_bin: Real = 1.75e-3;
         let axial_half: Real = 0.04;
         let nb = (2.0 * axial_half / axial_bin).round() as usize;
@@ -149,7 +170,7 @@ impl Profiles {
             window,
             tube,
             diameter,
-            wall_kn,
+            wall,
             points: ball_points(),
             axial_bin,
             axial_half,
@@ -251,7 +272,7 @@ impl Profiles {
                 }
                 if kc >= 0.0 && (kc as usize) < nb {
                     let kc = kc as usize;
-                    self.wall_force[kc] += self.wall_kn * overlap;
+                    self.wall_force[kc] += self.wall.force(r[i], overlap);
                     if let Some(f) = fluid_axial {
                         self.drag[kc] += f[i];
                     }
@@ -454,7 +475,12 @@ mod tests {
             length: 0.5,
         };
         let d = 1.4e-3;
-        let mut p = Profiles::new(tube, d, 1e3, PlugWindow::default());
+        let mut p = Profiles::new(
+            tube,
+            d,
+            WallSpring::Linear { kn: 1e3 },
+            PlugWindow::default(),
+        );
         let x: Vec<Vec3> = (0..40).map(|k| [0.0, 0.0, 0.23 + k as Real * d]).collect();
         let v = vec![[0.0, 0.0, 0.2]; x.len()];
         let r = vec![0.5 * d; x.len()];
@@ -484,7 +510,11 @@ mod tests {
                     < res.xi.len()
             })
             .count() as Real;
-        assert!((total - 1e-6 * inside).abs() < 1e-15, "{total} vs {}", 1e-6 * inside);
+        assert!(
+            (total - 1e-6 * inside).abs() < 1e-15,
+            "{total} vs {}",
+            1e-6 * inside
+        );
         assert!(res.drag.iter().all(|d| *d == 0.0));
         assert!(res.ring_porosity[0] < 0.5, "{:?}", res.ring_porosity);
         assert!(res
@@ -496,5 +526,24 @@ mod tests {
         let mid = res.xi.len() / 2;
         assert!((res.velocity[mid] - 0.2).abs() < 1e-12);
         assert!(res.temperature[mid].abs() < 1e-20);
+    }
+
+    /// The wall spring gives the engine's own elastic wall force: Hertz against a flat wall
+    /// (r* = r, no velocity) and Hooke.
+    #[test]
+    fn wall_spring_matches_the_contact_laws() {
+        use crate::dem::contact::{Hertz, Hooke, NormalLaw};
+        let (r, overlap) = (0.7e-3, 2e-6);
+        let h = Hertz::new(5e6, 0.45, 0.5);
+        let engine = h.evaluate(1e-3, r, overlap, 0.0).force;
+        let spring = WallSpring::Hertz { y_star: h.y_star }.force(r, overlap);
+        assert!(
+            (engine - spring).abs() <= 1e-12 * engine,
+            "{engine} vs {spring}"
+        );
+        let k = Hooke::new(350.0, 0.5, 2.0 / 7.0);
+        let engine = k.evaluate(1e-3, r, overlap, 0.0).force;
+        let spring = WallSpring::Linear { kn: 350.0 }.force(r, overlap);
+        assert!((engine - spring).abs() <= 1e-12 * engine);
     }
 }
