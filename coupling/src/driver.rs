@@ -223,6 +223,7 @@ impl Coupler {
                 porosity: interpolate_scalar(&st, phi),
                 pressure_gradient: interpolate_vec3(&st, &grad),
                 gas_velocity: [0.0; 3],
+                gas_density: 0.0,
             };
             let f = self.drag.force(&grain);
             if !(f[0].is_finite() && f[1].is_finite() && f[2].is_finite()) {

@@ -1,9 +1,15 @@
 //! Drag laws: the force of the gas on one grain from the fields at its position. One file
-//! per law behind [`DragLaw`]: `darcy` (the seeds' volume force, 000 and 002).
+//! per law behind [`DragLaw`]: `darcy` (the seeds' volume force, 000 and 002),
+//! `ergun_wen_yu` (seed 004 eqs. 12–13, the Gidaspow switch) and `di_felice`; the last two
+//! need a gas velocity, which the SIMPLE solver (src/gas/simple.rs) carries.
 
 mod darcy;
+mod di_felice;
+pub mod ergun_wen_yu;
 
 pub use darcy::DarcyVolumeForce;
+pub use di_felice::DiFelice;
+pub use ergun_wen_yu::ErgunWenYu;
 
 use crate::{Real, Vec3};
 
@@ -22,6 +28,8 @@ pub struct GrainInFluid {
     pub pressure_gradient: Vec3,
     /// Gas velocity at the grain, m/s (solvers that carry one).
     pub gas_velocity: Vec3,
+    /// Gas density at the grain, kg/m³ (solvers that carry one; the d'Arcy law needs none).
+    pub gas_density: Real,
 }
 
 /// A drag law.
