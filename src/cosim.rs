@@ -8,9 +8,10 @@ use plugflow_coupling::{
 use serde_json::{json, Value};
 
 use crate::dem::DemConfig;
-use crate::gas::{carman_kozeny, DarcyGas, DarcyParams, Scheme, SolvePath};
+use crate::gas::{carman_kozeny, DarcyGas, DarcyParams, Scheme, SimpleTubeGas, SolvePath};
 use crate::scene::{GasScheme, GasSolverPath, Scene, SceneError};
 use crate::Real;
+use plugflow_coupling::drag::{DiFelice, ErgunWenYu};
 
 /// JSON of a check for the summary.
 pub fn check_json(c: &CouplingCheck) -> Value {
@@ -79,6 +80,60 @@ pub fn coupling_from_scene(scene: &Scene, dem: &DemConfig) -> Result<Option<Coup
             }
             None => (10.0 * dem.dt, 10),
         };
+        if g.model == "simple" {
+            let rho = g
+                .density
+                .map(|d| d.si)
+                .expect("checked: simple has a density");
+            let gas = SimpleTubeGas::new(
+                grid.clone(),
+                rho,
+                g.viscosity.si,
+                v_s,
+                d_mean,
+                g.porosity_min.0,
+            );
+            let drag: Box<dyn plugflow_coupling::DragLaw> =
+                match f.coupling.as_ref().map_or("", |c| c.drag.as_str()) {
+                    "di_felice" => Box::new(DiFelice {
+                        viscosity: g.viscosity.si,
+                    }),
+                    _ => Box::new(ErgunWenYu {
+                        viscosity: g.viscosity.si,
+                    }),
+                };
+            // Drag relaxation of a grain in a dense bed under the viscous Ergun term:
+            // τ = m / (V β/(1−ε)) = ρ_s ε d² / (150 (1 − ε) μ) at ε = 0.4.
+            let phi = g.porosity_min.0.max(0.4);
+            let tau = dem.density * phi * d_mean * d_mean / (150.0 * (1.0 - phi) * g.viscosity.si);
+            let smallest = grid.volume.iter().copied().fold(Real::INFINITY, Real::min);
+            let grain = 4.0 / 3.0 * std::f64::consts::PI * dem.radius_min.powi(3);
+            let checks = vec![
+                check_drag_relaxation(tau, phi, interval),
+                check_cell_volume(smallest, grain),
+                check_travel(
+                    dem.max_impact_velocity,
+                    interval,
+                    grid.dz.min(grid.dx).min(grid.dy),
+                ),
+            ];
+            if let Some(bad) = checks.iter().find(|c| c.verdict == Verdict::Refused) {
+                return Err(SceneError::field(
+                    "coupling.interval",
+                    format!(
+                        "coupling check `{}` fails: {:.4} > {:.4}; {}",
+                        bad.name, bad.value, bad.limit, bad.advice
+                    ),
+                ));
+            }
+            return Ok(Some(Coupler::new(
+                Box::new(gas),
+                drag,
+                substeps,
+                dem.dt,
+                checks,
+            )));
+        }
         let checks = coupling_checks(&params, &grid, dem, interval);
         if let Some(bad) = checks.iter().find(|c| c.verdict == Verdict::Refused) {
             return Err(SceneError::field(

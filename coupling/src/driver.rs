@@ -206,6 +206,8 @@ impl Coupler {
         self.mass_error_max = self.mass_error_max.max(report.mass_error_rel);
         let t = std::time::Instant::now();
         let grad = self.gas.pressure_gradient();
+        let gas_u = self.gas.gas_velocity();
+        let gas_density = self.gas.gas_density();
         let phi = self.gas.porosity();
         let p = dem.particles();
         self.forces.clear();
@@ -222,8 +224,10 @@ impl Coupler {
                 velocity: p.velocity[i],
                 porosity: interpolate_scalar(&st, phi),
                 pressure_gradient: interpolate_vec3(&st, &grad),
-                gas_velocity: [0.0; 3],
-                gas_density: 0.0,
+                gas_velocity: gas_u
+                    .as_ref()
+                    .map_or([0.0; 3], |u| interpolate_vec3(&st, u)),
+                gas_density,
             };
             let f = self.drag.force(&grain);
             if !(f[0].is_finite() && f[1].is_finite() && f[2].is_finite()) {

@@ -48,6 +48,14 @@ pub trait GasSolver {
     fn pressure_gradient(&self) -> Vec<Vec3>;
     /// Pressure drop from inlet to outlet per length, Pa/m.
     fn pressure_drop_per_length(&self) -> Real;
+    /// Interstitial gas velocity on the nodes, m/s; None for solvers without one (d'Arcy).
+    fn gas_velocity(&self) -> Option<Vec<Vec3>> {
+        None
+    }
+    /// Gas density, kg/m³ (0 for solvers without inertia).
+    fn gas_density(&self) -> Real {
+        0.0
+    }
     /// A cheap estimate of the time-discretisation error of a step of `dt` from the
     /// current state: max |P'(one step of dt) − P'(two steps of dt/2)| over max |P'|, the
     /// solver's state left as it was. None for solvers that do not provide it.

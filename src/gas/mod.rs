@@ -7,3 +7,4 @@ pub mod darcy;
 pub mod simple;
 
 pub use darcy::{carman_kozeny, DarcyGas, DarcyParams, Scheme, SolvePath};
+pub use simple::{SimpleGas, SimpleParams, SimpleTubeGas};

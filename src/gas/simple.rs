@@ -15,16 +15,22 @@
 //! central; momentum by Gauss–Seidel sweeps; the pressure correction is symmetric positive
 //! definite and solved with faer's sparse Cholesky, the symbolic factorisation kept.
 //!
-//! Not yet (see the closing note): ideal-gas density, 3D, coupling to the DEM
-//! through the `GasSolver` trait and scene selection.
+//! [`SimpleTubeGas`] puts it behind the `GasSolver` trait on a tube grid of nz × 1 × ny
+//! nodes: the 2D channel is the plane of the tube axis and the grid's second cross
+//! direction, D high (2D, as seed 004). Not yet: ideal-gas density, 3D.
 
 use faer::linalg::solvers::Solve;
 use faer::sparse::linalg::solvers::{Llt, SymbolicLlt};
 use faer::sparse::{SparseColMat, Triplet};
 use faer::{Mat, Side};
 use plugflow_coupling::drag::ergun_wen_yu::gidaspow_beta;
+use plugflow_coupling::{GasError, GasSolver, GasStepReport, GranularFields, TubeGrid};
 
-use crate::Real;
+use crate::{Real, Vec3};
+
+/// Gauss–Seidel sweeps of each momentum equation per SIMPLE iteration (the outer
+/// iteration converges the coupling; the sweeps need only reduce the momentum residual).
+const MOMENTUM_SWEEPS: usize = 8;
 
 /// A time step: its length, s, and the velocities (u, v) at its start.
 type Transient = (Real, (Vec<Real>, Vec<Real>));
@@ -288,7 +294,7 @@ impl SimpleGas {
                 }
             }
             let mut u_star = self.u.clone();
-            for _ in 0..20 {
+            for _ in 0..MOMENTUM_SWEEPS {
                 for j in 0..ny {
                     for i in 1..=nx {
                         let k = self.iu(i, j);
@@ -360,7 +366,7 @@ impl SimpleGas {
                 }
             }
             let mut v_star = self.v.clone();
-            for _ in 0..20 {
+            for _ in 0..MOMENTUM_SWEEPS {
                 for j in 1..ny {
                     for i in 0..nx {
                         let k = self.iv(i, j);
@@ -498,6 +504,198 @@ impl SimpleGas {
     /// u on x-face i of every row (bottom to top), m/s.
     pub fn u_profile(&self, i: usize) -> Vec<Real> {
         (0..self.params.ny).map(|j| self.u[self.iu(i, j)]).collect()
+    }
+}
+
+/// SIMPLE iterations per coupling step at most, and the mass residual that ends them.
+const STEP_ITERATIONS: usize = 200;
+const STEP_TOLERANCE: Real = 1e-7;
+
+/// The SIMPLE gas behind the `GasSolver` trait, on a tube grid of nz × 1 × ny nodes
+/// (node (k, 0, j) is SIMPLE cell (k, j)).
+pub struct SimpleTubeGas {
+    grid: TubeGrid,
+    pub gas: SimpleGas,
+    porosity_min: Real,
+    /// Per node (tube-grid order): clamped porosity and pressure.
+    phi: Vec<Real>,
+    p: Vec<Real>,
+    steps: u64,
+}
+
+impl SimpleTubeGas {
+    /// SIMPLE on `grid` (which must have one node in its first cross direction) with the
+    /// gas's density, viscosity, inlet superficial velocity and the grains' diameter.
+    pub fn new(
+        grid: TubeGrid,
+        density: Real,
+        viscosity: Real,
+        superficial_velocity: Real,
+        grain_diameter: Real,
+        porosity_min: Real,
+    ) -> Self {
+        let gas = SimpleGas::new(SimpleParams {
+            density,
+            viscosity,
+            inlet_velocity: superficial_velocity,
+            length: grid.length,
+            height: 2.0 * grid.radius,
+            nx: grid.nz,
+            ny: grid.ny,
+            wall: Wall::NoSlip,
+            drag_diameter: Some(grain_diameter),
+            relax_velocity: 0.7,
+            relax_pressure: 0.3,
+        });
+        let n = grid.len();
+        Self {
+            grid,
+            gas,
+            porosity_min,
+            phi: vec![1.0; n],
+            p: vec![0.0; n],
+            steps: 0,
+        }
+    }
+
+    /// SIMPLE cell of tube-grid node n.
+    fn cell(&self, n: usize) -> (usize, usize) {
+        let g = &self.grid;
+        (n / (g.nx * g.ny), (n / g.nx) % g.ny)
+    }
+}
+
+impl GasSolver for SimpleTubeGas {
+    fn name(&self) -> &'static str {
+        "simple"
+    }
+
+    fn grid(&self) -> &TubeGrid {
+        &self.grid
+    }
+
+    fn set_superficial_velocity(&mut self, v: Real) {
+        self.gas.params.inlet_velocity = v;
+    }
+
+    fn step(&mut self, fields: &GranularFields, dt: Real) -> Result<GasStepReport, GasError> {
+        let (nz, ny) = (self.grid.nz, self.grid.ny);
+        let (mut clamped, mut low) = (0, 0);
+        let (axis, e2) = (self.grid.axis, self.grid.e2);
+        for n in 0..self.grid.len() {
+            let (k, j) = self.cell(n);
+            let raw = fields.porosity.get(n).copied().unwrap_or(1.0);
+            // Only the lower clamp: the upper one exists for the d'Arcy model, whose
+            // Carman–Kozeny permeability diverges at φ = 1; Wen–Yu's drag stays finite.
+            let phi = raw.clamp(self.porosity_min, 1.0);
+            if phi != raw {
+                clamped += 1;
+                if raw < self.porosity_min {
+                    low += 1;
+                }
+            }
+            self.phi[n] = phi;
+            let c = k + nz * j;
+            self.gas.porosity[c] = phi;
+            let v = fields.velocity.get(n).copied().unwrap_or([0.0; 3]);
+            let dotp = |a: Vec3| a[0] * v[0] + a[1] * v[1] + a[2] * v[2];
+            self.gas.grain_velocity[c] = [dotp(axis), dotp(e2)];
+        }
+        self.steps += 1;
+        let r = self
+            .gas
+            .step(dt, STEP_TOLERANCE, STEP_ITERATIONS)
+            .map_err(|reason| GasError::Solve {
+                step: self.steps,
+                reason,
+            })?;
+        if let Some(bad) = self.gas.p.iter().position(|x| !x.is_finite()) {
+            return Err(GasError::NonFinite {
+                step: self.steps,
+                node: bad,
+                slice: bad % nz,
+            });
+        }
+        for n in 0..self.grid.len() {
+            let (k, j) = self.cell(n);
+            self.p[n] = self.gas.p[k + nz * j];
+        }
+        let _ = ny;
+        Ok(GasStepReport {
+            clamped_nodes: clamped,
+            clamped_low_nodes: low,
+            mass_error_rel: r.mass_residual,
+        })
+    }
+
+    fn pressure(&self) -> &[Real] {
+        &self.p
+    }
+
+    fn porosity(&self) -> &[Real] {
+        &self.phi
+    }
+
+    fn pressure_gradient(&self) -> Vec<Vec3> {
+        let (nz, ny) = (self.grid.nz, self.grid.ny);
+        let (dz, dy) = (self.gas.dx, self.gas.dy);
+        let p = |k: usize, j: usize| self.gas.p[k + nz * j];
+        let (axis, e2) = (self.grid.axis, self.grid.e2);
+        (0..self.grid.len())
+            .map(|n| {
+                let (k, j) = self.cell(n);
+                // Along the axis: central inside, one-sided at the inlet, to the outlet's
+                // p = 0 half a cell downstream at the last cell.
+                let gs = if k + 1 == nz {
+                    let west = if k > 0 { p(k - 1, j) } else { p(k, j) };
+                    if k > 0 {
+                        (0.0 - west) / (1.5 * dz)
+                    } else {
+                        (0.0 - p(k, j)) / (0.5 * dz)
+                    }
+                } else if k == 0 {
+                    (p(1, j) - p(0, j)) / dz
+                } else {
+                    (p(k + 1, j) - p(k - 1, j)) / (2.0 * dz)
+                };
+                let gy = if ny == 1 {
+                    0.0
+                } else if j == 0 {
+                    (p(k, 1) - p(k, 0)) / dy
+                } else if j + 1 == ny {
+                    (p(k, j) - p(k, j - 1)) / dy
+                } else {
+                    (p(k, j + 1) - p(k, j - 1)) / (2.0 * dy)
+                };
+                [0, 1, 2].map(|c| gs * axis[c] + gy * e2[c])
+            })
+            .collect()
+    }
+
+    fn pressure_drop_per_length(&self) -> Real {
+        // First column's mean pressure over its distance to the outlet (p = 0).
+        let first = self.gas.column_pressure(0);
+        first / (self.grid.length - 0.5 * self.gas.dx)
+    }
+
+    fn gas_velocity(&self) -> Option<Vec<Vec3>> {
+        let nz = self.grid.nz;
+        let (axis, e2) = (self.grid.axis, self.grid.e2);
+        let g = &self.gas;
+        Some(
+            (0..self.grid.len())
+                .map(|n| {
+                    let (k, j) = self.cell(n);
+                    let u = 0.5 * (g.u[k + (nz + 1) * j] + g.u[k + 1 + (nz + 1) * j]);
+                    let v = 0.5 * (g.v[k + nz * j] + g.v[k + nz * (j + 1)]);
+                    [0, 1, 2].map(|c| u * axis[c] + v * e2[c])
+                })
+                .collect(),
+        )
+    }
+
+    fn gas_density(&self) -> Real {
+        self.gas.params.density
     }
 }
 

@@ -588,11 +588,31 @@ fn check_gas(f: &SceneFile) -> Result<(), SceneError> {
             "the gas is solved in a [tube]; the scene has none",
         ));
     }
-    if g.model != "darcy" {
-        return Err(field_err(
-            "gas.model",
-            format!("unknown gas model `{}` (this build has: darcy)", g.model),
-        ));
+    let simple = match g.model.as_str() {
+        "darcy" => false,
+        "simple" => true,
+        other => {
+            return Err(field_err(
+                "gas.model",
+                format!("unknown gas model `{other}` (this build has: darcy, simple)"),
+            ))
+        }
+    };
+    match (simple, g.density) {
+        (true, None) => {
+            return Err(field_err(
+                "gas.density",
+                "missing: the simple gas carries the gas's inertia (e.g. \"1.2 kg/m^3\")",
+            ))
+        }
+        (true, Some(d)) if d.si <= 0.0 => return Err(field_err("gas.density", "must be positive")),
+        (false, Some(_)) => {
+            return Err(field_err(
+                "gas.density",
+                "the darcy gas has no inertia and takes no density (model = \"simple\" does)",
+            ))
+        }
+        _ => {}
     }
     if g.viscosity.si <= 0.0 {
         return Err(field_err("gas.viscosity", "must be positive"));
@@ -627,7 +647,14 @@ fn check_gas(f: &SceneFile) -> Result<(), SceneError> {
             "needs at least 2 nodes along the axis",
         ));
     }
-    if !(1..=2).contains(&nx) || !(1..=2).contains(&ny) {
+    if simple && (nx != 1 || !(1..=8).contains(&ny)) {
+        return Err(field_err(
+            "gas.grid",
+            "the simple gas is 2D (the plane of the axis and the second cross direction): \
+             give [nz, 1, ny] with 1 ≤ ny ≤ 8",
+        ));
+    }
+    if !simple && (!(1..=2).contains(&nx) || !(1..=2).contains(&ny)) {
         return Err(field_err(
             "gas.grid",
             "across the tube 1 or 2 nodes per direction (finer cross-sections would need \
@@ -656,16 +683,30 @@ fn check_gas(f: &SceneFile) -> Result<(), SceneError> {
             "the clamp needs 0 < porosity_min < porosity_max < 1",
         ));
     }
-    if let Some(c) = &f.coupling {
-        if c.drag != "darcy" {
+    let drag = f.coupling.as_ref().map_or("darcy", |c| c.drag.as_str());
+    let fits = match drag {
+        "darcy" => !simple,
+        "ergun_wen_yu" | "di_felice" => simple,
+        other => {
             return Err(field_err(
                 "coupling.drag",
-                format!(
-                    "unknown drag law `{}` for the darcy gas (it takes: darcy)",
-                    c.drag
-                ),
-            ));
+                format!("unknown drag law `{other}` (darcy, ergun_wen_yu, di_felice)"),
+            ))
         }
+    };
+    if !fits {
+        return Err(field_err(
+            "coupling.drag",
+            if simple {
+                "the simple gas needs a drag law of the gas velocity: ergun_wen_yu or di_felice \
+                 (set [coupling] drag = …)"
+                    .to_string()
+            } else {
+                format!("`{drag}` needs the gas velocity, which only the simple gas carries")
+            },
+        ));
+    }
+    if let Some(c) = &f.coupling {
         if let Some(i) = c.interval {
             if i.si <= 0.0 {
                 return Err(field_err("coupling.interval", "must be positive"));

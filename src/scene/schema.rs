@@ -83,8 +83,12 @@ pub enum GasSolverPath {
 #[derive(Debug, Clone, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct GasSpec {
-    /// `darcy`.
+    /// `darcy` (McNamara–Flekkøy pressure diffusion) or `simple` (volume-averaged
+    /// Navier–Stokes, seed 004; 2D in the plane of the axis and the grid's second
+    /// cross direction).
     pub model: String,
+    /// Gas density, kg/m³ (`simple` only: it carries the gas's inertia; constant).
+    pub density: Option<Q<Density>>,
     /// (Effective) dynamic viscosity η, Pa·s.
     pub viscosity: Q<Viscosity>,
     /// Background pressure P0, Pa.
@@ -130,7 +134,8 @@ fn default_phi_max() -> Finite {
 pub struct CouplingSpec {
     /// Coupling interval Δt_c, s: a whole number of DEM steps. Default 10 DEM steps.
     pub interval: Option<Q<Time>>,
-    /// Drag law: `darcy` (the seeds' volume force). Default `darcy`.
+    /// Drag law: `darcy` (the seeds' volume force, with the `darcy` gas), `ergun_wen_yu`
+    /// (seed 004 eqs. 12–13) or `di_felice` (with the `simple` gas). Default `darcy`.
     #[serde(default = "default_drag")]
     pub drag: String,
 }

@@ -5,7 +5,8 @@
 //!   F = ½ C_D ρ (π d²/4) ε² |w| w ε^(−χ),   C_D = (0.63 + 4.8/√Re)²,
 //!   χ = 3.7 − 0.65 exp(−(1.5 − log₁₀ Re)²/2),   Re = ε ρ d |w| / μ,
 //!
-//! with w = u − v the interstitial slip (ε w the superficial one).
+//! with w = u − v the interstitial slip (ε w the superficial one), plus the pressure
+//! gradient force −V_p ∇p as for `ergun_wen_yu`.
 
 use super::{DragLaw, GrainInFluid};
 use crate::{Real, Vec3};
@@ -31,8 +32,10 @@ impl DragLaw for DiFelice {
         let speed = (w[0] * w[0] + w[1] * w[1] + w[2] * w[2]).sqrt();
         let (eps, d, rho) = (g.porosity, g.diameter, g.gas_density);
         let re = eps * rho * d * speed / self.viscosity;
+        let gp = g.pressure_gradient;
+        let buoyancy = [-g.volume * gp[0], -g.volume * gp[1], -g.volume * gp[2]];
         if re <= 0.0 {
-            return [0.0; 3];
+            return buoyancy;
         }
         let cd = (0.63 + 4.8 / re.sqrt()).powi(2);
         let chi = 3.7 - 0.65 * (-(1.5 - re.log10()).powi(2) / 2.0).exp();
@@ -41,7 +44,11 @@ impl DragLaw for DiFelice {
             * eps
             * speed
             * eps.powf(-chi);
-        [s * w[0], s * w[1], s * w[2]]
+        [
+            s * w[0] + buoyancy[0],
+            s * w[1] + buoyancy[1],
+            s * w[2] + buoyancy[2],
+        ]
     }
 }
 

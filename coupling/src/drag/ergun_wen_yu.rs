@@ -7,8 +7,9 @@
 //!   ε ≥ 0.8:  β = ¾ C_D ε (1 − ε) ρ |w| / d · ε^(−2.65),                       (Wen–Yu)
 //!             C_D = 24/Re (1 + 0.15 Re^0.687) for Re < 1000, else 0.44,  Re = ε ρ d |w| / μ,
 //!
-//! and the force on one grain F = V_p β w / (1 − ε). With the gas momentum written with
-//! −ε∇p, a fixed bed then carries exactly the Ergun pressure drop: ε ∇p = β u with the
+//! and the force on one grain F = V_p β w / (1 − ε) − V_p ∇p (the drag and the pressure
+//! gradient the grain sits in, its share of the −(1 − ε)∇p the gas momentum's −ε∇p leaves
+//! to the solids). With the gas momentum written with −ε∇p, a fixed bed then carries exactly the Ergun pressure drop: ε ∇p = β u with the
 //! superficial velocity U = ε u gives Δp/L = 150 μ (1−ε)² U/(ε³ d²) + 1.75 ρ (1−ε) U²/(ε³ d).
 //! Seed 004 prints eq. 12 per grain as ½ π R² ρ C_D |w| w with C_D = (200 (1 − ε)/Re + 7/3)/ε,
 //! which is this β divided by ε: with its −ε∇p momentum equation (eq. 10) a fixed bed would
@@ -29,20 +30,25 @@ pub fn schiller_naumann(re: Real) -> Real {
     }
 }
 
-/// The Gidaspow interphase coefficient β, kg/(m³ s), for porosity `eps`, slip speed `w`,
-/// grain diameter `d`, gas density `rho` and viscosity `mu`.
-pub fn gidaspow_beta(eps: Real, w: Real, d: Real, rho: Real, mu: Real) -> Real {
-    let solid = 1.0 - eps;
+/// β / (1 − ε), kg/(m³ s): the Gidaspow coefficient per volume of solid, finite as ε → 1
+/// (a lone grain), for porosity `eps`, slip speed `w`, grain diameter `d`, gas density `rho`
+/// and viscosity `mu`.
+pub fn gidaspow_beta_per_solid(eps: Real, w: Real, d: Real, rho: Real, mu: Real) -> Real {
     if eps < SWITCH_POROSITY {
-        150.0 * solid * solid * mu / (eps * d * d) + 1.75 * solid * rho * w / d
+        150.0 * (1.0 - eps) * mu / (eps * d * d) + 1.75 * rho * w / d
     } else {
         let re = eps * rho * d * w / mu;
         if re <= 0.0 {
-            // Stokes limit of C_D Re → 24: β = 18 μ (1 − ε) ε^(−2.65) / d².
-            return 18.0 * mu * solid * eps.powf(-2.65) / (d * d);
+            // Stokes limit of C_D Re → 24: 18 μ ε^(−2.65) / d².
+            return 18.0 * mu * eps.powf(-2.65) / (d * d);
         }
-        0.75 * schiller_naumann(re) * eps * solid * rho * w / d * eps.powf(-2.65)
+        0.75 * schiller_naumann(re) * eps * rho * w / d * eps.powf(-2.65)
     }
+}
+
+/// The Gidaspow interphase coefficient β, kg/(m³ s) (zero without grains, ε = 1).
+pub fn gidaspow_beta(eps: Real, w: Real, d: Real, rho: Real, mu: Real) -> Real {
+    (1.0 - eps) * gidaspow_beta_per_solid(eps, w, d, rho, mu)
 }
 
 /// The Ergun / Wen–Yu drag law with the gas's density and viscosity.
@@ -66,7 +72,12 @@ impl DragLaw for ErgunWenYu {
         let speed = (w[0] * w[0] + w[1] * w[1] + w[2] * w[2]).sqrt();
         let beta = gidaspow_beta(g.porosity, speed, g.diameter, g.gas_density, self.viscosity);
         let s = g.volume * beta / (1.0 - g.porosity);
-        [s * w[0], s * w[1], s * w[2]]
+        let gp = g.pressure_gradient;
+        [
+            s * w[0] - g.volume * gp[0],
+            s * w[1] - g.volume * gp[1],
+            s * w[2] - g.volume * gp[2],
+        ]
     }
 }
 
@@ -80,7 +91,7 @@ mod tests {
         let (d, rho, mu) = (1e-3, 1.2, 1.8e-5);
         let law = ErgunWenYu { viscosity: mu };
         let w = 0.5;
-        let eps = 1.0 - 1e-9;
+        let eps = 1.0;
         let g = GrainInFluid {
             volume: std::f64::consts::PI / 6.0 * d * d * d,
             diameter: d,
