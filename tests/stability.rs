@@ -330,6 +330,7 @@ fn coupled(
     seconds: f64,
     mut each: impl FnMut(f64, &mut plugflow_coupling::Coupler),
     insert: &[[f64; 3]],
+    v_s_max: f64,
 ) -> (Vec<(f64, f64)>, Vec<plugflow_coupling::CouplingCheck>) {
     let cfg = DemConfig::from_scene(s).unwrap();
     let mut e = NativeDem::new(cfg.clone()).unwrap();
@@ -350,19 +351,31 @@ fn coupled(
     let n = (seconds / c.interval).round() as usize;
     let mut trace = Vec::new();
     let mut worst: f64 = 0.0;
+    let tube = cfg.tube.unwrap();
+    let gn = cfg.gravity.iter().map(|x| x * x).sum::<f64>().sqrt();
+    let phi_min = s.file.gas.as_ref().unwrap().porosity_min.0;
+    let speed_bound = 2.0 * (v_s_max / phi_min).max((2.0 * gn * tube.length).sqrt());
+    let mut fastest: f64 = 0.0;
     for _ in 0..n {
         e.advance(c.substeps)
             .unwrap_or_else(|err| panic!("{name}: {err}"));
         c.exchange(&mut e)
             .unwrap_or_else(|err| panic!("{name}: {err}"));
         worst = worst.max(c.gas.pressure().iter().fold(0.0_f64, |m, p| m.max(p.abs())));
+        fastest = e
+            .particles()
+            .velocity
+            .iter()
+            .map(|v| (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt())
+            .fold(fastest, f64::max);
         trace.push((e.time(), c.gas.pressure_drop_per_length()));
         each(e.time(), &mut c);
     }
     let checks = c.checks.clone();
     println!(
         "stability | {name:<34} | {:.2} s | grains {} | max |P'| {:.0} Pa (bound P0 {:.0} Pa) \
-         | final Δp {:.0} Pa/m | warnings {} | no NaN",
+         | fastest grain {fastest:.2} m/s (bound {speed_bound:.1}) | final Δp {:.0} Pa/m \
+         | warnings {} | no NaN",
         e.time(),
         e.particles().len(),
         worst,
@@ -374,6 +387,10 @@ fn coupled(
             .count()
     );
     assert!(worst < p0, "{name}: |P'| {worst} Pa reaches P0");
+    assert!(
+        fastest < speed_bound,
+        "{name}: a grain reached {fastest} m/s (bound {speed_bound} m/s)"
+    );
     (trace, checks)
 }
 
@@ -382,7 +399,7 @@ fn coupled(
 #[test]
 fn superficial_velocity_20_m_s_warns_and_stays_stable() {
     let s = vertical(&["gas.superficial_velocity=20 m/s"]);
-    let (_, checks) = coupled("v_s = 20 m/s", &s, 0.3, |_, _| {}, &[]);
+    let (_, checks) = coupled("v_s = 20 m/s", &s, 0.3, |_, _| {}, &[], 20.0);
     let w = checks
         .iter()
         .find(|c| c.name.contains("d'Arcy"))
@@ -408,7 +425,14 @@ fn blocked_tube_pressure_rises_without_blow_up() {
         "inlet.mass_flow=3.2 kg/h",
         "gas.superficial_velocity=0.3 m/s",
     ]);
-    let (trace, _) = coupled("blocked tube (3.2 kg/h, 0.3 m/s)", &s, 1.5, |_, _| {}, &[]);
+    let (trace, _) = coupled(
+        "blocked tube (3.2 kg/h, 0.3 m/s)",
+        &s,
+        1.5,
+        |_, _| {},
+        &[],
+        0.3,
+    );
     let at = |t: f64| {
         trace
             .iter()
@@ -466,7 +490,14 @@ fn grains_on_grid_nodes_and_on_the_wall() {
         ]);
     }
     assert!(x.len() > 20);
-    coupled("grains on nodes and on the wall", &s, 0.1, |_, _| {}, &x);
+    coupled(
+        "grains on nodes and on the wall",
+        &s,
+        0.1,
+        |_, _| {},
+        &x,
+        1.0,
+    );
 }
 
 /// A step change of the inlet gas flow (1 → 3 m/s after 0.4 s): the pressure drop jumps
@@ -484,6 +515,7 @@ fn step_change_of_the_inlet_flow() {
             }
         },
         &[],
+        3.0,
     );
     // d'Arcy: Δp ∝ v_s through the same grains, so the 20 ms after the step carry a clearly
     // larger pressure drop than the 20 ms before it (the grains barely move in 20 ms).

@@ -1,7 +1,6 @@
 //! Gas solvers, one file each behind [`plugflow_coupling::GasSolver`]:
 //! `darcy` (McNamara–Flekkøy pressure diffusion, seeds 000 and 002) and `simple`
-//! (volume-averaged Navier–Stokes, seed 004; validated on its own, not yet behind the trait
-//! nor selectable in a scene).
+//! (volume-averaged Navier–Stokes, seed 004; 2D).
 
 pub mod darcy;
 pub mod simple;
