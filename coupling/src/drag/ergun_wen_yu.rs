@@ -70,8 +70,9 @@ impl DragLaw for ErgunWenYu {
             g.gas_velocity[2] - g.velocity[2],
         ];
         let speed = (w[0] * w[0] + w[1] * w[1] + w[2] * w[2]).sqrt();
-        let beta = gidaspow_beta(g.porosity, speed, g.diameter, g.gas_density, self.viscosity);
-        let s = g.volume * beta / (1.0 - g.porosity);
+        // V_p β/(1 − ε), finite for a lone grain (ε = 1).
+        let s = g.volume
+            * gidaspow_beta_per_solid(g.porosity, speed, g.diameter, g.gas_density, self.viscosity);
         let gp = g.pressure_gradient;
         [
             s * w[0] - g.volume * gp[0],
