@@ -489,7 +489,15 @@ fn preflight(dir: &std::path::Path, commands: &[String]) -> Result<(), String> {
     if out.status.success() {
         return Ok(());
     }
-    let said = std::fs::read_to_string(&screen).unwrap_or_default();
+    // LIGGGHTS writes its ERROR line to the screen file, the log or its own output,
+    // depending on where it failed: look in all of them.
+    let said = [
+        std::fs::read_to_string(&screen).unwrap_or_default(),
+        std::fs::read_to_string(dir.join("preflight.log")).unwrap_or_default(),
+        String::from_utf8_lossy(&out.stdout).into_owned(),
+        String::from_utf8_lossy(&out.stderr).into_owned(),
+    ]
+    .join("\n");
     let error = said
         .lines()
         .find(|l| l.contains("ERROR"))
