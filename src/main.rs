@@ -148,6 +148,25 @@ fn checked_scene(
     })
 }
 
+/// This executable, which sweeps, studies and crosschecks start once per variant.
+fn plugflow_exe() -> Result<PathBuf, ExitCode> {
+    std::env::current_exe().map_err(|e| {
+        eprintln!("error: cannot find the plugflow executable: {e}");
+        ExitCode::FAILURE
+    })
+}
+
+/// Every `--vary PATH=V1,V2,…`, or exit code 2 after saying which is malformed.
+fn parse_varies(vary: &[String]) -> Result<Vec<sweep::Vary>, ExitCode> {
+    vary.iter()
+        .map(|v| sweep::parse_vary(v))
+        .collect::<Result<Vec<_>, _>>()
+        .map_err(|e| {
+            eprintln!("error: {e}");
+            ExitCode::from(2)
+        })
+}
+
 fn main() -> ExitCode {
     let cli = Cli::parse();
     match cli.command {
@@ -165,12 +184,9 @@ fn main() -> ExitCode {
             let out = out.unwrap_or_else(|| {
                 PathBuf::from("results").join(format!("{}_crosscheck", base.file.name))
             });
-            let exe = match std::env::current_exe() {
+            let exe = match plugflow_exe() {
                 Ok(e) => e,
-                Err(e) => {
-                    eprintln!("error: cannot find the plugflow executable: {e}");
-                    return ExitCode::FAILURE;
-                }
+                Err(code) => return code,
             };
             match crosscheck::crosscheck(&exe, &scene, &engines, &set, duration, &out) {
                 Ok(s) => {
@@ -205,13 +221,9 @@ fn main() -> ExitCode {
             threads,
             set,
         } => {
-            let varies: Result<Vec<_>, _> = vary.iter().map(|v| sweep::parse_vary(v)).collect();
-            let varies = match varies {
+            let varies = match parse_varies(&vary) {
                 Ok(v) => v,
-                Err(e) => {
-                    eprintln!("error: {e}");
-                    return ExitCode::from(2);
-                }
+                Err(code) => return code,
             };
             let base = match checked_scene(&scene, &set, duration) {
                 Ok(s) => s,
@@ -227,12 +239,9 @@ fn main() -> ExitCode {
                 set,
                 threads: threads.max(1),
             };
-            let exe = match std::env::current_exe() {
+            let exe = match plugflow_exe() {
                 Ok(e) => e,
-                Err(e) => {
-                    eprintln!("error: cannot find the plugflow executable: {e}");
-                    return ExitCode::FAILURE;
-                }
+                Err(code) => return code,
             };
             match sweep::sweep(&exe, &scene, &varies, &opts) {
                 Ok(rows) => {
@@ -275,13 +284,9 @@ fn main() -> ExitCode {
             threads,
             set,
         } => {
-            let varies: Result<Vec<_>, _> = vary.iter().map(|v| sweep::parse_vary(v)).collect();
-            let varies = match varies {
+            let varies = match parse_varies(&vary) {
                 Ok(v) => v,
-                Err(e) => {
-                    eprintln!("error: {e}");
-                    return ExitCode::from(2);
-                }
+                Err(code) => return code,
             };
             let mut exact_values = Vec::new();
             for e in &exact {
@@ -329,12 +334,9 @@ fn main() -> ExitCode {
                 exact: exact_values,
                 target_error,
             };
-            let exe = match std::env::current_exe() {
+            let exe = match plugflow_exe() {
                 Ok(e) => e,
-                Err(e) => {
-                    eprintln!("error: cannot find the plugflow executable: {e}");
-                    return ExitCode::FAILURE;
-                }
+                Err(code) => return code,
             };
             match study::study(&exe, &scene, &varies, &opts) {
                 Ok(r) => {

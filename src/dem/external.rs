@@ -3,6 +3,7 @@
 //! restitution to hand to the β-damping form those engines use.
 
 use super::config::{DemConfig, LawSet};
+use super::contact::{impact_restitution, invert_restitution};
 use crate::Real;
 
 /// Absolute contact constants of one pair kind (grain–grain or grain–wall) under the
@@ -86,60 +87,6 @@ pub fn beta_form_restitution(alpha: Real) -> Option<Real> {
     (beta > -1.0).then(|| (beta * std::f64::consts::PI / (1.0 - beta * beta).sqrt()).exp())
 }
 
-/// Restitution of a unit-speed impact (m = 1, x(0) = 0, v(0) = 1) under the normal force
-/// `force(x, v)` when the contact ends as soon as that force reaches zero, as in engines
-/// whose dashpot never pulls (YADE's ViscEl law clamps F_n ≥ 0). The built-in
-/// engine lets the dashpot pull until the overlap closes; cutting it off earlier loses
-/// less energy, so the same damping gives a higher restitution. RK4, dimensionless.
-fn cutoff_restitution(force: impl Fn(Real, Real) -> Real) -> Real {
-    let h = 2e-4;
-    let (mut x, mut v) = (0.0_f64, 1.0_f64);
-    let acc = |x: Real, v: Real| -force(x.max(0.0), v);
-    let mut t = 0.0;
-    while t < 100.0 {
-        let (k1x, k1v) = (v, acc(x, v));
-        let (k2x, k2v) = (v + 0.5 * h * k1v, acc(x + 0.5 * h * k1x, v + 0.5 * h * k1v));
-        let (k3x, k3v) = (v + 0.5 * h * k2v, acc(x + 0.5 * h * k2x, v + 0.5 * h * k2v));
-        let (k4x, k4v) = (v + h * k3v, acc(x + h * k3x, v + h * k3v));
-        let xn = x + h / 6.0 * (k1x + 2.0 * k2x + 2.0 * k3x + k4x);
-        let vn = v + h / 6.0 * (k1v + 2.0 * k2v + 2.0 * k3v + k4v);
-        t += h;
-        let (f0, f1) = (force(x.max(0.0), v), force(xn.max(0.0), vn));
-        if t > h && (f1 <= 0.0 || xn <= 0.0) {
-            // Interpolate the exit speed linearly to the zero of the force.
-            let s = if f0 > f1 { f0 / (f0 - f1) } else { 1.0 };
-            return -(v + s.clamp(0.0, 1.0) * (vn - v));
-        }
-        x = xn;
-        v = vn;
-    }
-    0.0
-}
-
-/// Largest damping parameter on a bisection: restitution(p) decreases with p; the p that
-/// gives `e`, or None when even p = 64 leaves more than `e`.
-fn invert_restitution(e: Real, restitution: impl Fn(Real) -> Real) -> Option<Real> {
-    let (mut lo, mut hi) = (0.0_f64, 1.0_f64);
-    while restitution(hi) > e {
-        hi *= 2.0;
-        if hi > 64.0 {
-            return None;
-        }
-    }
-    for _ in 0..60 {
-        let mid = 0.5 * (lo + hi);
-        if restitution(mid) > e {
-            lo = mid;
-        } else {
-            hi = mid;
-        }
-        if hi - lo < 1e-10 {
-            break;
-        }
-    }
-    Some(0.5 * (lo + hi))
-}
-
 /// Damping ratio ζ of a linear spring–dashpot (F = k x + 2ζ√(k m) v) that gives
 /// restitution `e` when the contact ends at zero force: what an engine that clamps
 /// F_n ≥ 0 needs to reproduce the scene's e.
@@ -147,7 +94,11 @@ pub fn linear_cutoff_damping_ratio(e: Real) -> Option<Real> {
     if e >= 1.0 {
         return Some(0.0);
     }
-    invert_restitution(e, |zeta| cutoff_restitution(|x, v| x + 2.0 * zeta * v))
+    // YADE's ViscEl law clamps F_n ≥ 0 (its dashpot never pulls): the contact ends at zero
+    // force, which keeps more energy than the built-in engine's cutoff at zero overlap.
+    invert_restitution(e, |zeta| {
+        impact_restitution(|x, v| x + 2.0 * zeta * v, true)
+    })
 }
 
 #[cfg(test)]
@@ -162,10 +113,10 @@ mod tests {
     fn cutoff_damping_gives_the_restitution_back() {
         for e in [0.1, 0.5, 0.9] {
             let zeta = hooke_damping_ratio(e);
-            assert!(cutoff_restitution(|x, v| x + 2.0 * zeta * v) > e + 1e-3);
+            assert!(impact_restitution(|x, v| x + 2.0 * zeta * v, true) > e + 1e-3);
             let z = linear_cutoff_damping_ratio(e).unwrap();
             assert!(z > zeta);
-            assert!((cutoff_restitution(|x, v| x + 2.0 * z * v) - e).abs() < 1e-6);
+            assert!((impact_restitution(|x, v| x + 2.0 * z * v, true) - e).abs() < 1e-6);
         }
     }
 

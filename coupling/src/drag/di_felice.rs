@@ -24,12 +24,7 @@ impl DragLaw for DiFelice {
     }
 
     fn force(&self, g: &GrainInFluid) -> Vec3 {
-        let w = [
-            g.gas_velocity[0] - g.velocity[0],
-            g.gas_velocity[1] - g.velocity[1],
-            g.gas_velocity[2] - g.velocity[2],
-        ];
-        let speed = (w[0] * w[0] + w[1] * w[1] + w[2] * w[2]).sqrt();
+        let (w, speed) = g.slip();
         let (eps, d, rho) = (g.porosity, g.diameter, g.gas_density);
         let re = eps * rho * d * speed / self.viscosity;
         let gp = g.pressure_gradient;

@@ -64,12 +64,7 @@ impl DragLaw for ErgunWenYu {
     }
 
     fn force(&self, g: &GrainInFluid) -> Vec3 {
-        let w = [
-            g.gas_velocity[0] - g.velocity[0],
-            g.gas_velocity[1] - g.velocity[1],
-            g.gas_velocity[2] - g.velocity[2],
-        ];
-        let speed = (w[0] * w[0] + w[1] * w[1] + w[2] * w[2]).sqrt();
+        let (w, speed) = g.slip();
         // V_p β/(1 − ε), finite for a lone grain (ε = 1).
         let s = g.volume
             * gidaspow_beta_per_solid(g.porosity, speed, g.diameter, g.gas_density, self.viscosity);

@@ -32,6 +32,18 @@ pub struct GrainInFluid {
     pub gas_density: Real,
 }
 
+impl GrainInFluid {
+    /// Slip w = u − v of the gas past the grain, m/s, and its magnitude.
+    pub fn slip(&self) -> (Vec3, Real) {
+        let w = [
+            self.gas_velocity[0] - self.velocity[0],
+            self.gas_velocity[1] - self.velocity[1],
+            self.gas_velocity[2] - self.velocity[2],
+        ];
+        (w, (w[0] * w[0] + w[1] * w[1] + w[2] * w[2]).sqrt())
+    }
+}
+
 /// A drag law.
 pub trait DragLaw: Send + Sync {
     /// Name as the scene writes it.

@@ -56,19 +56,16 @@ pub fn hooke_damping_ratio(e: Real) -> Real {
     l / (std::f64::consts::PI.powi(2) + l * l).sqrt()
 }
 
-/// Restitution of the Tsuji-damped Hertz oscillator x'' + α x^{1/4} x' + x^{3/2} = 0 with
-/// unit impact speed. It depends on α alone (the model's point: e independent of speed),
-/// so we integrate the dimensionless equation once with RK4 and invert it by bisection.
-pub fn tsuji_restitution(alpha: Real) -> Real {
-    // Dimensionless: m = K = v0 = 1; contact lasts ≈ 3.2 time units.
+/// Restitution of a unit-speed impact (m = 1, x(0) = 0, v(0) = 1) under the normal force
+/// `force(x, v)`, integrated with RK4 in dimensionless time. The contact ends when the
+/// overlap closes or, with `end_at_zero_force` (engines whose dashpot never pulls), as soon
+/// as the force reaches zero; the exit speed is interpolated to that crossing.
+pub fn impact_restitution(force: impl Fn(Real, Real) -> Real, end_at_zero_force: bool) -> Real {
     let h = 2e-4;
     let (mut x, mut v) = (0.0_f64, 1.0_f64);
-    let acc = |x: Real, v: Real| -> Real {
-        let xp = x.max(0.0);
-        -alpha * xp.sqrt().sqrt() * v - xp * xp.sqrt()
-    };
+    let acc = |x: Real, v: Real| -force(x.max(0.0), v);
     let mut t = 0.0;
-    loop {
+    while t < 100.0 {
         let (k1x, k1v) = (v, acc(x, v));
         let (k2x, k2v) = (v + 0.5 * h * k1v, acc(x + 0.5 * h * k1x, v + 0.5 * h * k1v));
         let (k3x, k3v) = (v + 0.5 * h * k2v, acc(x + 0.5 * h * k2x, v + 0.5 * h * k2v));
@@ -76,32 +73,38 @@ pub fn tsuji_restitution(alpha: Real) -> Real {
         let xn = x + h / 6.0 * (k1x + 2.0 * k2x + 2.0 * k3x + k4x);
         let vn = v + h / 6.0 * (k1v + 2.0 * k2v + 2.0 * k3v + k4v);
         t += h;
-        if xn <= 0.0 && t > h {
-            // Interpolate the exit speed linearly to the crossing.
-            let s = x / (x - xn);
-            return -(v + s * (vn - v));
+        if t > h {
+            if end_at_zero_force {
+                let (f0, f1) = (force(x.max(0.0), v), force(xn.max(0.0), vn));
+                if f1 <= 0.0 || xn <= 0.0 {
+                    let s = if f0 > f1 { f0 / (f0 - f1) } else { 1.0 };
+                    return -(v + s.clamp(0.0, 1.0) * (vn - v));
+                }
+            } else if xn <= 0.0 {
+                let s = x / (x - xn);
+                return -(v + s * (vn - v));
+            }
         }
         x = xn;
         v = vn;
-        if t > 100.0 {
-            return 0.0; // over-damped: never leaves
-        }
     }
+    0.0 // over-damped: never leaves
 }
 
-/// The Tsuji damping constant α that gives restitution `e` (bisection on
-/// [`tsuji_restitution`], monotone decreasing in α). Exact to 1e-9 in e.
-pub fn tsuji_alpha(e: Real) -> Real {
-    if e >= 1.0 {
-        return 0.0;
-    }
-    let (mut lo, mut hi) = (0.0_f64, 4.0_f64);
-    while tsuji_restitution(hi) > e {
+/// The damping parameter that gives restitution `e`, by bisection on `restitution`
+/// (decreasing in the parameter); None when even 64 leaves more than `e`. Exact to 1e-10
+/// in the parameter.
+pub fn invert_restitution(e: Real, restitution: impl Fn(Real) -> Real) -> Option<Real> {
+    let (mut lo, mut hi) = (0.0_f64, 1.0_f64);
+    while restitution(hi) > e {
         hi *= 2.0;
+        if hi > 64.0 {
+            return None;
+        }
     }
     for _ in 0..60 {
         let mid = 0.5 * (lo + hi);
-        if tsuji_restitution(mid) > e {
+        if restitution(mid) > e {
             lo = mid;
         } else {
             hi = mid;
@@ -110,7 +113,22 @@ pub fn tsuji_alpha(e: Real) -> Real {
             break;
         }
     }
-    0.5 * (lo + hi)
+    Some(0.5 * (lo + hi))
+}
+
+/// Restitution of the Tsuji-damped Hertz oscillator x'' + α x^{1/4} x' + x^{3/2} = 0 with
+/// unit impact speed. It depends on α alone (the model's point: e independent of speed).
+pub fn tsuji_restitution(alpha: Real) -> Real {
+    impact_restitution(|x, v| x * x.sqrt() + alpha * x.sqrt().sqrt() * v, false)
+}
+
+/// The Tsuji damping constant α that gives restitution `e` (bisection on
+/// [`tsuji_restitution`], monotone decreasing in α).
+pub fn tsuji_alpha(e: Real) -> Real {
+    if e >= 1.0 {
+        return 0.0;
+    }
+    invert_restitution(e, tsuji_restitution).unwrap_or(64.0)
 }
 
 #[cfg(test)]
