@@ -1,6 +1,7 @@
 //! The SIMPLE gas coupled to the DEM (`gas.model = "simple"`, `coupling.drag =
 //! "ergun_wen_yu"`): one grain settling through still gas reaches the Schiller–Naumann
-//! terminal velocity. (The solver alone — plane Poiseuille, packed bed against Ergun — is
+//! terminal velocity, and the CFDEM Ergun test's bed follows Ergun, then carries its weight.
+//! (The solver alone — plane Poiseuille, packed bed against Ergun — is
 //! tested in src/gas/simple.rs.)
 
 use plugflow::cosim::coupling_from_scene;
