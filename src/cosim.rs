@@ -92,6 +92,7 @@ pub fn coupling_from_scene(scene: &Scene, dem: &DemConfig) -> Result<Option<Coup
                 v_s,
                 d_mean,
                 g.porosity_min.0,
+                (g.equation_of_state.as_deref() == Some("ideal_gas")).then_some(g.pressure.si),
             );
             let drag: Box<dyn plugflow_coupling::DragLaw> =
                 match f.coupling.as_ref().map_or("", |c| c.drag.as_str()) {

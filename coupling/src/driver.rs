@@ -227,7 +227,9 @@ impl Coupler {
                 gas_velocity: gas_u
                     .as_ref()
                     .map_or([0.0; 3], |u| interpolate_vec3(&st, u)),
-                gas_density,
+                gas_density: gas_density
+                    .as_ref()
+                    .map_or(0.0, |r| interpolate_scalar(&st, r)),
             };
             let f = self.drag.force(&grain);
             if !(f[0].is_finite() && f[1].is_finite() && f[2].is_finite()) {

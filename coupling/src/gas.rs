@@ -52,9 +52,9 @@ pub trait GasSolver {
     fn gas_velocity(&self) -> Option<Vec<Vec3>> {
         None
     }
-    /// Gas density, kg/m³ (0 for solvers without inertia).
-    fn gas_density(&self) -> Real {
-        0.0
+    /// Gas density on the nodes, kg/m³; None for solvers without inertia (d'Arcy: 0).
+    fn gas_density(&self) -> Option<Vec<Real>> {
+        None
     }
     /// A cheap estimate of the time-discretisation error of a step of `dt` from the
     /// current state: max |P'(one step of dt) − P'(two steps of dt/2)| over max |P'|, the

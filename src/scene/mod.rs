@@ -614,6 +614,22 @@ fn check_gas(f: &SceneFile) -> Result<(), SceneError> {
         }
         _ => {}
     }
+    match (simple, g.equation_of_state.as_deref()) {
+        (true, None | Some("constant" | "ideal_gas")) | (false, None) => {}
+        (true, Some(other)) => {
+            return Err(field_err(
+                "gas.equation_of_state",
+                format!("unknown `{other}` (this build has: constant, ideal_gas)"),
+            ))
+        }
+        (false, Some(_)) => {
+            return Err(field_err(
+                "gas.equation_of_state",
+                "the darcy gas is an ideal gas by construction (McNamara–Flekkøy) and takes no \
+                 choice (model = \"simple\" does)",
+            ))
+        }
+    }
     if g.viscosity.si <= 0.0 {
         return Err(field_err("gas.viscosity", "must be positive"));
     }

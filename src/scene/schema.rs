@@ -87,8 +87,12 @@ pub struct GasSpec {
     /// Navier–Stokes, seed 004; 2D in the plane of the axis and the grid's second
     /// cross direction).
     pub model: String,
-    /// Gas density, kg/m³ (`simple` only: it carries the gas's inertia; constant).
+    /// Gas density, kg/m³ (`simple` only: it carries the gas's inertia), at `pressure`.
     pub density: Option<Q<Density>>,
+    /// `simple` only: `constant` density (default) or `ideal_gas` (isothermal: ρ =
+    /// density × (P0 + p)/P0, p the gauge pressure, 0 at the outlet). The d'Arcy model is an
+    /// ideal gas by construction and takes no choice.
+    pub equation_of_state: Option<String>,
     /// (Effective) dynamic viscosity η, Pa·s.
     pub viscosity: Q<Viscosity>,
     /// Background pressure P0, Pa.
