@@ -41,7 +41,14 @@ pub fn coupling_from_scene(scene: &Scene, dem: &DemConfig) -> Result<Option<Coup
             _ => unreachable!("checked in scene::check_gas"),
         };
         let [nz, nx, ny] = g.grid;
-        let grid = TubeGrid::new(tube.origin, tube.axis, tube.radius, tube.length, nz, nx, ny);
+        let grid = TubeGrid::new_in_slab(
+            tube.origin,
+            tube.axis,
+            tube.radius,
+            tube.length,
+            [nz, nx, ny],
+            tube.slab_half,
+        );
         let d_mean = dem.radius_min + dem.radius_max;
         let params = DarcyParams {
             p0: g.pressure.si,

@@ -2,6 +2,7 @@
 //! interval, sample the tube, show progress, and write `summary.json` (also when the run
 //! fails part-way, with what it computed up to then).
 
+use crate::analysis::taps::{PressureTap, TapTrace};
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
@@ -177,6 +178,17 @@ pub fn run(scene: &Scene, opts: &RunOptions) -> Result<RunOutcome, RunError> {
     });
     let mut porosity_rows: Vec<Vec<Real>> = Vec::new();
     let mut dp_trace: Vec<(Real, Real)> = Vec::new();
+    let mut taps = TapTrace::new(
+        f.output
+            .pressure_taps
+            .iter()
+            .map(|t| PressureTap {
+                name: t.name.clone(),
+                from: t.from.si,
+                to: t.to.si,
+            })
+            .collect(),
+    );
     let snapshot_spec = f.output.snapshots.as_ref();
     let wants = |fmt: SnapshotFormat| snapshot_spec.is_some_and(|s| s.formats.contains(&fmt));
     let mut outputs: Vec<Box<dyn RunOutput>> = Vec::new();
@@ -242,6 +254,14 @@ pub fn run(scene: &Scene, opts: &RunOptions) -> Result<RunOutcome, RunError> {
         if let (Some(p), Some(d)) = (&gas_porosity, dp) {
             porosity_rows.push(p.clone());
             dp_trace.push((dem.time(), d));
+        }
+        if let (Some(g), Some(profile)) = (&gas, &gas_pressure) {
+            taps.push(
+                dem.time(),
+                &g.axial_positions(),
+                profile,
+                g.gas.grid().length,
+            );
         }
         let frame = tracker.as_ref().map(|tr| {
             let p = dem.particles();
@@ -481,6 +501,36 @@ pub fn run(scene: &Scene, opts: &RunOptions) -> Result<RunOutcome, RunError> {
             Value::Array(g.checks.iter().map(check_json).collect()),
         );
         o.insert("coupling_interval_s".into(), json!(g.interval));
+        if !taps.taps.is_empty() {
+            // Peaks and troughs: swings of at least 1 mbar (100 Pa).
+            o.insert("pressure_taps".into(), taps.summary(settle, 100.0));
+            let csv_path = out_dir.join("pressure_taps.csv");
+            std::fs::write(&csv_path, taps.csv()).map_err(|source| RunError::Io {
+                path: csv_path.display().to_string(),
+                source,
+            })?;
+            figures::panels(
+                &out_dir.join("pressure_taps.png"),
+                &[Panel {
+                    title: "differential pressure".into(),
+                    x_label: "time t (s)".into(),
+                    y_label: "p(from) − p(to) (mbar)".into(),
+                    curves: taps
+                        .taps
+                        .iter()
+                        .enumerate()
+                        .map(|(k, t)| {
+                            Curve::line(
+                                format!("{} ({}–{} m)", t.name, t.from, t.to),
+                                taps.rows.iter().map(|r| (r.0, r.1[k] / 100.0)).collect(),
+                            )
+                        })
+                        .collect(),
+                }],
+                900,
+                420,
+            )?;
+        }
         o.insert("gas_model".into(), json!(g.gas.name()));
         write_porosity_image(&out_dir, &porosity_rows)?;
         figures::panels(

@@ -21,6 +21,7 @@ fn params(scheme: Scheme, path: SolvePath, v_s: f64) -> DarcyParams {
 
 fn uniform(grid: &TubeGrid, phi: f64) -> GranularFields {
     GranularFields {
+        fed_solid: Vec::new(),
         porosity: vec![phi; grid.len()],
         velocity: vec![[0.0; 3]; grid.len()],
         stencils: Vec::new(),

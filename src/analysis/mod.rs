@@ -3,4 +3,5 @@
 
 pub mod plugs;
 pub mod profiles;
+pub mod taps;
 pub mod targets;

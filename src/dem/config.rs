@@ -51,6 +51,8 @@ pub struct TubeGeometry {
     pub inlet_open: bool,
     /// Grains leave through the outlet end (counted as outflow).
     pub outlet_open: bool,
+    /// Quasi-2D: half the slab's thickness, m (the grains keep |(x − origin)·e1| ≤ this).
+    pub slab_half: Option<Real>,
 }
 
 /// The inlet in engine terms.
@@ -66,6 +68,20 @@ pub struct InletConfig {
     pub batch_target: usize,
     /// Requested porosity.
     pub porosity: Real,
+    /// Feeding stops at this time, s (None: never).
+    pub until: Option<Real>,
+}
+
+/// The open cross-section of a tube of `radius`, or of the slab |u| ≤ `slab_half` of it, m².
+pub fn open_cross_section(radius: Real, slab_half: Option<Real>) -> Real {
+    match slab_half {
+        None => PI * radius * radius,
+        Some(h) => {
+            let h = h.min(radius);
+            // 2 ∫ √(R² − u²) du over [−h, h].
+            2.0 * (h * (radius * radius - h * h).sqrt() + radius * radius * (h / radius).asin())
+        }
+    }
 }
 
 /// The initial fill in engine terms.
@@ -278,6 +294,35 @@ impl DemConfig {
                     },
                 });
             }
+            let slab_half = match t.slab {
+                None => None,
+                Some(w) if w.si < dmax || w.si >= 2.0 * radius => {
+                    return Err(field_err(
+                        "tube.slab",
+                        format!(
+                            "{:.4e} m must lie between the largest grain's diameter {:.4e} m and \
+                             the tube's {:.4e} m",
+                            w.si,
+                            dmax,
+                            2.0 * radius
+                        ),
+                    ))
+                }
+                Some(w) => {
+                    let (e1, _) = super::placement::perpendicular_basis(axis);
+                    let h = 0.5 * w.si;
+                    for (name, sign) in [("slab_front", 1.0), ("slab_back", -1.0)] {
+                        walls.push(Wall {
+                            name: name.into(),
+                            shape: WallShape::Plane {
+                                point: super::vec3::add(origin, scale(e1, sign * h)),
+                                normal: scale(e1, -sign),
+                            },
+                        });
+                    }
+                    Some(h)
+                }
+            };
             removes = t.inlet_end == TubeEnd::Open || t.outlet_end == TubeEnd::Open;
             // Box around the tube with one diameter of margin at the ends.
             let end = super::vec3::add(origin, scale(axis, length));
@@ -295,6 +340,7 @@ impl DemConfig {
                 length,
                 inlet_open: t.inlet_end == TubeEnd::Open,
                 outlet_open: t.outlet_end == TubeEnd::Open,
+                slab_half,
             });
         } else {
             let b = f.domain.as_ref().expect("checked: tube or domain");
@@ -334,7 +380,7 @@ impl DemConfig {
                         "must be shorter than the tube",
                     ));
                 }
-                let area = PI * t.radius * t.radius;
+                let area = open_cross_section(t.radius, t.slab_half);
                 let porosity = i.porosity.0;
                 let batch_target =
                     ((1.0 - porosity) * area * slab / v_mean).floor().max(1.0) as usize;
@@ -364,6 +410,12 @@ impl DemConfig {
                     slab_length: slab,
                     batch_target,
                     porosity,
+                    until: match i.until {
+                        Some(u) if u.si < 0.0 => {
+                            return Err(field_err("inlet.until", "must be ≥ 0 s"))
+                        }
+                        u => u.map(|q| q.si),
+                    },
                 })
             }
             _ => None,
@@ -385,6 +437,7 @@ impl DemConfig {
                             origin: t.origin,
                             axis: t.axis,
                             radius: t.radius,
+                            slab_half: t.slab_half,
                             from: ini.from.si,
                             to: ini.to.si,
                         }

@@ -84,6 +84,9 @@ impl Feeder {
         let (Some(inlet), Some(tube)) = (cfg.inlet, cfg.tube) else {
             return Vec::new();
         };
+        if inlet.until.is_some_and(|u| time > u) {
+            return Vec::new();
+        }
         self.backlog += inlet.rate * elapsed;
         let owed_much = |b: Real| b > 2.0 * inlet.batch_target as Real;
         if self.backlog < 1.0 || time < self.retry_at {
@@ -102,6 +105,7 @@ impl Feeder {
             origin: tube.origin,
             axis: tube.axis,
             radius: tube.radius,
+            slab_half: tube.slab_half,
             from: 0.0,
             to: inlet.slab_length,
         };

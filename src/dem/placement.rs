@@ -12,11 +12,13 @@ use std::collections::HashMap;
 /// Where grains may go: the part of a tube between two axial positions, or a box.
 #[derive(Debug, Clone)]
 pub enum Region {
-    /// Tube stretch s ∈ [from, to] along `axis` from `origin`, inner radius `radius`.
+    /// Tube stretch s ∈ [from, to] along `axis` from `origin`, inner radius `radius`
+    /// (within |u| ≤ `slab_half` along the first cross direction, for a quasi-2D slab).
     TubeStretch {
         origin: Vec3,
         axis: Vec3,
         radius: Real,
+        slab_half: Option<Real>,
         from: Real,
         to: Real,
     },
@@ -44,16 +46,18 @@ impl Region {
                 origin,
                 axis,
                 radius,
+                slab_half,
                 from,
                 to,
             } => {
                 let rr = radius - r;
-                if rr <= 0.0 || to - from < 2.0 * r {
+                let ru = slab_half.map_or(rr, |h| (h - r).min(rr));
+                if rr <= 0.0 || ru < 0.0 || to - from < 2.0 * r {
                     return None;
                 }
                 let (e1, e2) = perpendicular_basis(*axis);
                 let (u, v) = loop {
-                    let u = rng.range(-rr, rr);
+                    let u = rng.range(-ru, ru);
                     let v = rng.range(-rr, rr);
                     if u * u + v * v <= rr * rr {
                         break (u, v);

@@ -103,6 +103,9 @@ pub struct SimpleGas {
     pub rho: Vec<Real>,
     /// ρε of every cell at the end of the last time step (None before the first).
     prev_mass: Option<Vec<Real>>,
+    /// Solid fraction of the grains fed into each cell since the last step (they enter
+    /// with their gas: counted as present at the step's start too). Empty: none.
+    pub fed_solid: Vec<Real>,
     /// Grain velocity at cell centres (x, y), m/s.
     pub grain_velocity: Vec<[Real; 2]>,
     symbolic: Option<SymbolicLlt<usize>>,
@@ -122,6 +125,7 @@ impl SimpleGas {
             porosity: vec![1.0; nx * ny],
             rho: vec![params.density; nx * ny],
             prev_mass: None,
+            fed_solid: Vec::new(),
             grain_velocity: vec![[0.0; 2]; nx * ny],
             symbolic: None,
             params,
@@ -259,9 +263,18 @@ impl SimpleGas {
     /// or out of a cell displace gas) and, for an ideal gas, the density's change.
     pub fn step(&mut self, dt: Real, tol: Real, max_iter: usize) -> Result<SimpleReport, String> {
         let old = (self.u.clone(), self.v.clone());
-        let mass_old = self.prev_mass.take().unwrap_or_else(|| self.cell_mass());
+        let mut mass_old = self.prev_mass.take().unwrap_or_else(|| self.cell_mass());
+        let saved_mass = mass_old.clone();
+        for ((m, f), r) in mass_old.iter_mut().zip(&self.fed_solid).zip(&self.rho) {
+            *m -= r * f;
+        }
+        self.fed_solid.clear();
         let r = self.iterate(Some((dt, old, mass_old.clone())), tol, max_iter);
-        self.prev_mass = Some(if r.is_ok() { self.cell_mass() } else { mass_old });
+        self.prev_mass = Some(if r.is_ok() {
+            self.cell_mass()
+        } else {
+            saved_mass
+        });
         r
     }
 
@@ -656,27 +669,17 @@ impl SimpleTubeGas {
         }
     }
 
-    /// SIMPLE cell of tube-grid node n.
-    fn cell(&self, n: usize) -> (usize, usize) {
-        let g = &self.grid;
-        (n / (g.nx * g.ny), (n / g.nx) % g.ny)
-    }
-}
-
-impl GasSolver for SimpleTubeGas {
-    fn name(&self) -> &'static str {
-        "simple"
-    }
-
-    fn grid(&self) -> &TubeGrid {
-        &self.grid
-    }
-
-    fn set_superficial_velocity(&mut self, v: Real) {
-        self.gas.params.inlet_velocity = v;
-    }
-
-    fn step(&mut self, fields: &GranularFields, dt: Real) -> Result<GasStepReport, GasError> {
+    /// One gas step of `dt` towards the grains' fields: the porosity goes `share` of the
+    /// way from the last step's to the fields' (1: all of it; the step-doubling estimate
+    /// takes two halves), and `fed_share` of the grains fed since the last exchange count
+    /// as present at the step's start.
+    fn advance(
+        &mut self,
+        fields: &GranularFields,
+        dt: Real,
+        share: Real,
+        fed_share: Real,
+    ) -> Result<GasStepReport, GasError> {
         let (nz, ny) = (self.grid.nz, self.grid.ny);
         let (mut clamped, mut low) = (0, 0);
         let (axis, e2) = (self.grid.axis, self.grid.e2);
@@ -685,8 +688,13 @@ impl GasSolver for SimpleTubeGas {
             let raw = fields.porosity.get(n).copied().unwrap_or(1.0);
             // Only the lower clamp: the upper one exists for the d'Arcy model, whose
             // Carman–Kozeny permeability diverges at φ = 1; Wen–Yu's drag stays finite.
-            let phi = raw.clamp(self.porosity_min, 1.0);
-            if phi != raw {
+            let full = raw.clamp(self.porosity_min, 1.0);
+            let phi = if self.steps == 0 {
+                full
+            } else {
+                self.phi[n] + share * (full - self.phi[n])
+            };
+            if full != raw {
                 clamped += 1;
                 if raw < self.porosity_min {
                     low += 1;
@@ -698,6 +706,14 @@ impl GasSolver for SimpleTubeGas {
             let v = fields.velocity.get(n).copied().unwrap_or([0.0; 3]);
             let dotp = |a: Vec3| a[0] * v[0] + a[1] * v[1] + a[2] * v[2];
             self.gas.grain_velocity[c] = [dotp(axis), dotp(e2)];
+        }
+        self.gas.fed_solid.clear();
+        if !fields.fed_solid.is_empty() {
+            self.gas.fed_solid.resize(nz * ny, 0.0);
+            for n in 0..self.grid.len() {
+                let (k, j) = self.cell(n);
+                self.gas.fed_solid[k + nz * j] += fed_share * fields.fed_solid[n];
+            }
         }
         self.steps += 1;
         let r = self
@@ -724,6 +740,30 @@ impl GasSolver for SimpleTubeGas {
             clamped_low_nodes: low,
             mass_error_rel: r.mass_residual,
         })
+    }
+
+    /// SIMPLE cell of tube-grid node n.
+    fn cell(&self, n: usize) -> (usize, usize) {
+        let g = &self.grid;
+        (n / (g.nx * g.ny), (n / g.nx) % g.ny)
+    }
+}
+
+impl GasSolver for SimpleTubeGas {
+    fn name(&self) -> &'static str {
+        "simple"
+    }
+
+    fn grid(&self) -> &TubeGrid {
+        &self.grid
+    }
+
+    fn set_superficial_velocity(&mut self, v: Real) {
+        self.gas.params.inlet_velocity = v;
+    }
+
+    fn step(&mut self, fields: &GranularFields, dt: Real) -> Result<GasStepReport, GasError> {
+        self.advance(fields, dt, 1.0, 1.0)
     }
 
     fn pressure(&self) -> &[Real] {
@@ -799,10 +839,18 @@ impl GasSolver for SimpleTubeGas {
         fields: &GranularFields,
         dt: Real,
     ) -> Result<Option<Real>, GasError> {
-        let (gas, phi, p, steps) = (self.gas.clone(), self.phi.clone(), self.p.clone(), self.steps);
+        let (gas, phi, p, steps) = (
+            self.gas.clone(),
+            self.phi.clone(),
+            self.p.clone(),
+            self.steps,
+        );
         let run = |this: &mut Self, halves: usize| -> Result<Vec<Real>, GasError> {
-            let r = (0..halves).try_for_each(|_| {
-                this.step(fields, dt / halves as Real).map(|_| ())
+            // The porosity changes (and the grains fed) spread evenly over the parts.
+            let r = (0..halves).try_for_each(|h| {
+                let share = 1.0 / (halves - h) as Real;
+                this.advance(fields, dt / halves as Real, share, 1.0 / halves as Real)
+                    .map(|_| ())
             });
             let out = this.gas.p.clone();
             this.gas = gas.clone();
@@ -997,7 +1045,10 @@ mod tests {
             grew += gained;
         }
         // It did pressurise: the stored mass rose by a visible share of the inflow.
-        println!("stored {grew:.3e} kg of {:.3e} kg fed", 20.0 * 1.2 * 0.5 * h * dt);
+        println!(
+            "stored {grew:.3e} kg of {:.3e} kg fed",
+            20.0 * 1.2 * 0.5 * h * dt
+        );
         assert!(grew > 0.01 * 20.0 * 1.2 * 0.5 * h * dt);
     }
 
@@ -1025,6 +1076,7 @@ mod tests {
             porosity,
             velocity: vec![[0.0; 3]; n],
             stencils: Vec::new(),
+            fed_solid: Vec::new(),
         };
         for _ in 0..3 {
             gas.step(&fields, 1e-4).unwrap();

@@ -559,6 +559,29 @@ fn check(f: &SceneFile) -> Result<(), SceneError> {
             ));
         }
     }
+    for (k, t) in f.output.pressure_taps.iter().enumerate() {
+        let field = format!("output.pressure_taps[{k}]");
+        if f.gas.is_none() {
+            return Err(field_err(field, "a pressure transducer needs a [gas]"));
+        }
+        let length = f.tube.as_ref().map_or(0.0, |t| t.length.si);
+        if !(0.0 <= t.from.si && t.from.si < t.to.si && t.to.si <= length) {
+            return Err(field_err(
+                field,
+                format!(
+                    "`{}`: the taps need 0 ≤ from < to ≤ the tube's length {length} m (got {} \
+                     and {} m)",
+                    t.name, t.from.si, t.to.si
+                ),
+            ));
+        }
+        if t.name.is_empty() || f.output.pressure_taps[..k].iter().any(|o| o.name == t.name) {
+            return Err(field_err(
+                field,
+                format!("the name `{}` is empty or used twice", t.name),
+            ));
+        }
+    }
     if let Some(s) = f.output.slice_length {
         if s.si <= 0.0 {
             return Err(field_err("output.slice_length", "must be positive"));

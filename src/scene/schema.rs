@@ -182,6 +182,10 @@ pub struct TubeSpec {
     /// Outlet end. Default `open`.
     #[serde(default = "default_open")]
     pub outlet_end: TubeEnd,
+    /// Quasi-2D (as seed 004's model): the grains live in a slab this thick through the axis,
+    /// between two planes normal to the gas grid's first cross direction; the gas grid
+    /// counts only the slab's volume. At least one grain diameter, below the tube's.
+    pub slab: Option<Q<Length>>,
 }
 
 fn default_axis() -> [Finite; 3] {
@@ -366,6 +370,9 @@ pub struct InletSpec {
     pub velocity: Q<Velocity>,
     /// Length of the insertion slab, m. Default 3 × largest diameter.
     pub slab_length: Option<Q<Length>>,
+    /// Feeding stops at this time, s (a feeder valve closing; seed 004 at 10 s). Default:
+    /// feeds to the end.
+    pub until: Option<Q<Time>>,
 }
 
 /// Grains placed at random lattice sites between two axial positions before the run.
@@ -416,6 +423,23 @@ pub struct OutputSpec {
     /// Which plugs the profiles average over (default: 1–6 cm long, 0–1 m/s, centre in the
     /// middle 20 % of the tube).
     pub profiles: Option<ProfileSpec>,
+    /// Differential pressure transducers (seed 004's DP1): p(from) − p(to) at every sample,
+    /// written to `pressure_taps.csv`, drawn in `pressure_taps.png`, summarised in the
+    /// summary's `pressure_taps`. Needs a gas.
+    #[serde(default)]
+    pub pressure_taps: Vec<PressureTapSpec>,
+}
+
+/// A differential pressure transducer between two positions along the tube axis.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PressureTapSpec {
+    /// Name in outputs (e.g. "DP1").
+    pub name: String,
+    /// Upstream tap, m from the inlet end.
+    pub from: Q<Length>,
+    /// Downstream tap, m from the inlet end.
+    pub to: Q<Length>,
 }
 
 /// Plug selection windows of the profiles.
@@ -439,6 +463,7 @@ impl Default for OutputSpec {
             reproduces: Vec::new(),
             snapshots: None,
             profiles: None,
+            pressure_taps: Vec::new(),
         }
     }
 }

@@ -69,6 +69,19 @@ const AXES: [&str; 3] = ["x", "y", "z"];
 
 /// Map a checked scene.
 pub fn map(scene: &Scene, cfg: &DemConfig) -> Result<Mapped, Refusal> {
+    if cfg.tube.is_some_and(|t| t.slab_half.is_some()) {
+        return Err(refuse(
+            "tube.slab",
+            "quasi-2D slabs are not mapped to LIGGGHTS (its inlet inserts grains across the \
+             whole tube); use dem.engine = \"native\"",
+        ));
+    }
+    if cfg.inlet.is_some_and(|i| i.until.is_some()) {
+        return Err(refuse(
+            "inlet.until",
+            "LIGGGHTS's own insertion runs to the end of the run (not mapped)",
+        ));
+    }
     let Some(m) = single_grain_mass(cfg) else {
         return Err(refuse(
             "particles.diameter_min",
@@ -311,6 +324,12 @@ const REFUSED: [&str; 8] = [
 
 /// A user's own LIGGGHTS input (CFDEMcoupling style) with plugflow's coupling fixes.
 pub fn map_user(cfg: &DemConfig, path: &str) -> Result<Mapped, Refusal> {
+    if cfg.tube.is_some_and(|t| t.slab_half.is_some()) {
+        return Err(refuse(
+            "tube.slab",
+            "quasi-2D slabs are not mapped to LIGGGHTS; use dem.engine = \"native\"",
+        ));
+    }
     let field = "dem.liggghts_input";
     let text = std::fs::read_to_string(path)
         .map_err(|e| refuse(field, format!("cannot read `{path}`: {e}")))?;

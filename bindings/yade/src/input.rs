@@ -194,6 +194,13 @@ pub fn wall_modulus(e: f64, nu: f64, c: f64) -> Option<(f64, f64)> {
 
 /// Map a checked scene.
 pub fn map(scene: &Scene, cfg: &DemConfig) -> Result<Setup, Refusal> {
+    if cfg.tube.is_some_and(|t| t.slab_half.is_some()) {
+        return Err(refuse(
+            "tube.slab",
+            "quasi-2D slabs are not mapped to YADE (not cross-checked); use dem.engine = \
+             \"native\"",
+        ));
+    }
     if scene.file.dem.liggghts_input.is_some() {
         return Err(refuse(
             "dem.liggghts_input",
