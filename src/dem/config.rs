@@ -328,8 +328,14 @@ impl DemConfig {
             let end = super::vec3::add(origin, scale(axis, length));
             box_lo = [0.0; 3];
             box_hi = [0.0; 3];
+            // (A quasi-2D slab spans at most h |e1_k| + R |e2_k| along k: a box that tight
+            // keeps the neighbour grid small.)
+            let (e1, e2) = super::placement::perpendicular_basis(axis);
             for k in 0..3 {
-                let half = radius * (1.0 - axis[k] * axis[k]).max(0.0).sqrt();
+                let mut half = radius * (1.0 - axis[k] * axis[k]).max(0.0).sqrt();
+                if let Some(h) = slab_half {
+                    half = half.min(h * e1[k].abs() + radius * e2[k].abs());
+                }
                 box_lo[k] = origin[k].min(end[k]) - half - dmax;
                 box_hi[k] = origin[k].max(end[k]) + half + dmax;
             }

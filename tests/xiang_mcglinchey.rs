@@ -1,0 +1,106 @@
+//! Seed 004's horizontal dense-phase pipe, CI-sized (`cases/xiang_mcglinchey_short.toml`: the
+//! 80 mm pipe's first 2 m for 2 s, quasi-2D slab, SIMPLE + Ergun/Wen–Yu, ideal gas), run
+//! end to end through the CLI. The paper describes what happens (§4): fed grains pile up at
+//! the pipe's bottom into dunes; a dune that reaches the pipe's top is pushed on by the gas as
+//! a plug; grains left behind form a stationary layer. The test reads the particle snapshots
+//! of run.h5 and checks each of these, the slab holding the grains, and the pressure
+//! transducers' output. (The full case, 8 m and 18 s, is cases/xiang_mcglinchey.toml; its
+//! DP1 trace against the paper's 25 mbar peaks is in cases/README.md.)
+
+mod common;
+
+use common::plugflow;
+
+#[test]
+fn dunes_grow_into_plugs_over_a_stationary_layer() {
+    let case = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/cases/xiang_mcglinchey_short.toml"
+    );
+    let out = std::env::temp_dir().join(format!("plugflow_xm_{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&out);
+    let (code, text) = plugflow(&["run", case, "--out", out.to_str().unwrap(), "--quiet"]);
+    assert_eq!(code, 0, "{text}");
+    let summary: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
+    assert_eq!(summary["status"], "completed", "{summary}");
+    // The feed is never blocked: 0.0677 kg/s of 3 mm nylon is 4221 grains/s for 2 s.
+    let fed = summary["grains_fed"].as_f64().unwrap();
+    assert!((fed / (2.0 * 4221.0) - 1.0).abs() < 0.01, "fed {fed}");
+    assert_eq!(summary["grains_lost"].as_f64().unwrap(), 0.0, "{summary}");
+
+    let (r_pipe, d, slab) = (0.04, 3e-3, 3.3e-3);
+    let f = hdf5::File::open(out.join("run.h5")).unwrap();
+    let mut names = f.group("particles").unwrap().member_names().unwrap();
+    names.sort();
+    assert_eq!(names.len(), 20, "snapshots every 0.1 s: {names:?}");
+    let mut plug_seen = None;
+    let mut last = None;
+    for name in &names {
+        let g = f.group(&format!("particles/{name}")).unwrap();
+        let t: f64 = g.attr("time").unwrap().read_scalar().unwrap();
+        let x = g.dataset("position").unwrap().read_2d::<f64>().unwrap();
+        let v = g.dataset("velocity").unwrap().read_2d::<f64>().unwrap();
+        // The slab holds every grain: |y| ≤ (slab − d)/2, plus a contact's overlap (the
+        // Hertz overlap under a plug's load is well under 1 % of d).
+        for row in x.rows() {
+            assert!(
+                row[1].abs() <= 0.5 * (slab - d) + 0.01 * d,
+                "t = {t}: grain at y = {} outside the slab",
+                row[1]
+            );
+        }
+        // Top of the pile in each 16 mm stretch (a gas cell's length) past the 10 cm where
+        // the inlet places grains across the whole section.
+        let bins = 125;
+        let mut top = vec![f64::NEG_INFINITY; bins];
+        for row in x.rows() {
+            let k = (row[0] / 0.016) as usize;
+            if k < bins {
+                top[k] = top[k].max(row[2] + 0.5 * d);
+            }
+        }
+        // A plug: three stretches in a row (48 mm) filled to within a grain of the top.
+        let full: Vec<bool> = top.iter().map(|&z| z >= r_pipe - d).collect();
+        if let Some(k) = (7..bins - 2).find(|&k| full[k] && full[k + 1] && full[k + 2]) {
+            plug_seen.get_or_insert((t, k as f64 * 0.016));
+        }
+        last = Some((t, x, v));
+    }
+    let (t_plug, x_plug) = plug_seen.expect("no dune ever reached the pipe's top");
+    println!("first plug past the feed zone: t = {t_plug:.2} s at x = {x_plug:.3} m");
+    // In the last snapshot: grains resting in a layer (slower than 5 cm/s, at the bottom
+    // half) while the grains on the whole are conveyed.
+    let (t, x, v) = last.unwrap();
+    let n = x.nrows();
+    let resting = (0..n)
+        .filter(|&i| {
+            let s = (v[[i, 0]].powi(2) + v[[i, 1]].powi(2) + v[[i, 2]].powi(2)).sqrt();
+            s < 0.05 && x[[i, 2]] < 0.0
+        })
+        .count();
+    let mean_vx = (0..n).map(|i| v[[i, 0]]).sum::<f64>() / n as f64;
+    println!(
+        "t = {t:.2} s: {n} grains, {resting} resting in the lower half, mean v_x {mean_vx:.2} m/s"
+    );
+    assert!(resting as f64 > 0.05 * n as f64, "{resting} of {n} at rest");
+    assert!(mean_vx > 0.2, "mean axial velocity {mean_vx} m/s");
+
+    // The transducers: one row per sample, Δp falling downstream on average, the plugs
+    // passing as peaks.
+    let csv = std::fs::read_to_string(out.join("pressure_taps.csv")).unwrap();
+    let mut lines = csv.lines();
+    assert_eq!(lines.next().unwrap(), "time_s,first_metre_pa,pipe_pa");
+    assert_eq!(lines.count(), 200);
+    assert!(out.join("pressure_taps.png").exists());
+    let taps = summary["pressure_taps"].as_array().unwrap();
+    for tap in taps {
+        assert!(tap["mean_pa"].as_f64().unwrap() > 0.0, "{tap}");
+        assert!(tap["peaks"].as_u64().unwrap() >= 1, "{tap}");
+    }
+    println!(
+        "{}",
+        serde_json::to_string_pretty(&summary["pressure_taps"]).unwrap()
+    );
+    let _ = std::fs::remove_dir_all(&out);
+}
