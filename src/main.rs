@@ -454,6 +454,30 @@ fn main() -> ExitCode {
                     if let Some(dp) = sm.get("pressure_drop_hpa_per_m").and_then(|v| v.as_f64()) {
                         println!("pressure drop {dp:.2} hPa/m (mean after the settling time)");
                     }
+                    for tap in sm
+                        .get("pressure_taps")
+                        .and_then(|t| t.as_array())
+                        .into_iter()
+                        .flatten()
+                    {
+                        let mbar = |k: &str| {
+                            tap[k]
+                                .as_f64()
+                                .map_or_else(|| "—".to_string(), |v| format!("{:.2}", v / 100.0))
+                        };
+                        println!(
+                            "{} ({}–{} m): max {} mbar, min {} mbar, {} peaks (median {} mbar), \
+                             troughs median {} mbar (after the settling time)",
+                            tap["name"].as_str().unwrap_or("?"),
+                            tap["from_m"],
+                            tap["to_m"],
+                            mbar("max_pa"),
+                            mbar("min_pa"),
+                            tap["peaks"],
+                            mbar("peak_median_pa"),
+                            mbar("trough_median_pa"),
+                        );
+                    }
                     if let Some(targets) = sm.get("targets").and_then(|t| t.as_array()) {
                         println!(
                             "{:<4} {:<42} {:>10} {:>8} {:>16}  inside",

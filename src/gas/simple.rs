@@ -25,7 +25,7 @@
 
 use faer::linalg::solvers::Solve;
 use faer::sparse::linalg::solvers::{Llt, SymbolicLlt};
-use faer::sparse::{SparseColMat, Triplet};
+use faer::sparse::{Argsort, Pair, SparseColMat, SymbolicSparseColMat};
 use faer::{Mat, Side};
 use plugflow_coupling::drag::ergun_wen_yu::gidaspow_beta;
 use plugflow_coupling::{GasError, GasSolver, GasStepReport, GranularFields, TubeGrid};
@@ -34,7 +34,7 @@ use crate::{Real, Vec3};
 
 /// Gauss–Seidel sweeps of each momentum equation per SIMPLE iteration (the outer
 /// iteration converges the coupling; the sweeps need only reduce the momentum residual).
-const MOMENTUM_SWEEPS: usize = 8;
+const MOMENTUM_SWEEPS: usize = 4;
 
 /// A time step: its length, s, the velocities (u, v) at its start and the gas mass per
 /// volume of mixture, ρε, of every cell then, kg/m³.
@@ -109,6 +109,9 @@ pub struct SimpleGas {
     /// Grain velocity at cell centres (x, y), m/s.
     pub grain_velocity: Vec<[Real; 2]>,
     symbolic: Option<SymbolicLlt<usize>>,
+    /// The pressure-correction matrix's pattern and the order its values are pushed in
+    /// (the same every iteration: built once).
+    pattern: Option<(SymbolicSparseColMat<usize>, Argsort<usize>)>,
 }
 
 impl SimpleGas {
@@ -128,6 +131,7 @@ impl SimpleGas {
             fed_solid: Vec::new(),
             grain_velocity: vec![[0.0; 2]; nx * ny],
             symbolic: None,
+            pattern: None,
             params,
         }
     }
@@ -387,11 +391,16 @@ impl SimpleGas {
                 }
             }
             let mut u_star = self.u.clone();
+            // Reciprocal diagonals: the sweep's chain of updates waits on no division.
+            let inv_a: Vec<Real> = a
+                .iter()
+                .map(|r| if r[0] > 0.0 { 1.0 / r[0] } else { 0.0 })
+                .collect();
             for _ in 0..MOMENTUM_SWEEPS {
                 for j in 0..ny {
                     for i in 1..=nx {
                         let k = self.iu(i, j);
-                        let [ap, ae, aw, an, as_] = a[k];
+                        let [_, ae, aw, an, as_] = a[k];
                         let mut s = b[k] + aw * u_star[self.iu(i - 1, j)];
                         if i < nx {
                             s += ae * u_star[self.iu(i + 1, j)];
@@ -402,13 +411,11 @@ impl SimpleGas {
                         if j > 0 {
                             s += as_ * u_star[self.iu(i, j - 1)];
                         }
-                        u_star[k] = s / ap;
+                        u_star[k] = s * inv_a[k];
                     }
                 }
             }
-            let du: Vec<Real> = (0..nu)
-                .map(|k| if a[k][0] > 0.0 { 1.0 / a[k][0] } else { 0.0 })
-                .collect();
+            let du = inv_a;
             // ---- v momentum on interior y-faces j = 1..ny−1 ---------------------------
             let nvf = nx * (ny + 1);
             let mut av = vec![[0.0; 5]; nvf];
@@ -461,11 +468,15 @@ impl SimpleGas {
                 }
             }
             let mut v_star = self.v.clone();
+            let inv_av: Vec<Real> = av
+                .iter()
+                .map(|r| if r[0] > 0.0 { 1.0 / r[0] } else { 0.0 })
+                .collect();
             for _ in 0..MOMENTUM_SWEEPS {
                 for j in 1..ny {
                     for i in 0..nx {
                         let k = self.iv(i, j);
-                        let [ap, ae, aw, an, as_] = av[k];
+                        let [_, ae, aw, an, as_] = av[k];
                         let mut s = bv[k];
                         if i + 1 < nx {
                             s += ae * v_star[self.iv(i + 1, j)];
@@ -479,16 +490,16 @@ impl SimpleGas {
                         if j > 1 {
                             s += as_ * v_star[self.iv(i, j - 1)];
                         }
-                        v_star[k] = s / ap;
+                        v_star[k] = s * inv_av[k];
                     }
                 }
             }
-            let dv: Vec<Real> = (0..nvf)
-                .map(|k| if av[k][0] > 0.0 { 1.0 / av[k][0] } else { 0.0 })
-                .collect();
+            let dv = inv_av;
             // ---- pressure correction ---------------------------------------------------
             let n = nx * ny;
-            let mut trip: Vec<Triplet<usize, usize, Real>> = Vec::with_capacity(3 * n);
+            // Entries (row, column, value) of the lower triangle, pushed in a fixed order.
+            let mut idx: Vec<(usize, usize)> = Vec::with_capacity(3 * n);
+            let mut val: Vec<Real> = Vec::with_capacity(3 * n);
             let mut diag = vec![0.0; n];
             let mut rhs = vec![0.0; n];
             let mut worst: Real = 0.0;
@@ -527,7 +538,8 @@ impl SimpleGas {
                     if i + 1 < nx {
                         let e = self.c(i + 1, j);
                         diag[e] += ae;
-                        trip.push(Triplet::new(e, c, -ae));
+                        idx.push((e, c));
+                        val.push(-ae);
                     }
                     if j + 1 < ny {
                         let an = self.rho_v(i, j + 1)
@@ -539,14 +551,25 @@ impl SimpleGas {
                         let nn = self.c(i, j + 1);
                         diag[c] += an;
                         diag[nn] += an;
-                        trip.push(Triplet::new(nn, c, -an));
+                        idx.push((nn, c));
+                        val.push(-an);
                     }
                 }
             }
             for (k, d) in diag.iter().enumerate() {
-                trip.push(Triplet::new(k, k, *d));
+                idx.push((k, k));
+                val.push(*d);
             }
-            let mat = SparseColMat::<usize, Real>::try_new_from_triplets(n, n, &trip)
+            if self.pattern.is_none() {
+                let pairs: Vec<Pair<usize, usize>> =
+                    idx.iter().map(|&(row, col)| Pair { row, col }).collect();
+                self.pattern = Some(
+                    SymbolicSparseColMat::try_new_from_indices(n, n, &pairs)
+                        .map_err(|e| format!("pressure-correction pattern: {e:?}"))?,
+                );
+            }
+            let (pattern, order) = self.pattern.as_ref().expect("just built");
+            let mat = SparseColMat::<usize, Real>::new_from_argsort(pattern.clone(), order, &val)
                 .map_err(|e| format!("pressure-correction assembly: {e:?}"))?;
             if self.symbolic.is_none() {
                 self.symbolic = Some(
@@ -629,6 +652,8 @@ pub struct SimpleTubeGas {
     phi: Vec<Real>,
     p: Vec<Real>,
     steps: u64,
+    /// SIMPLE iterations of the last step.
+    pub last_iterations: usize,
 }
 
 impl SimpleTubeGas {
@@ -655,8 +680,11 @@ impl SimpleTubeGas {
             ny: grid.ny,
             wall: Wall::NoSlip,
             drag_diameter: Some(grain_diameter),
+            // Time steps: the ρεV/Δt term dominates the momentum diagonal, so the pressure
+            // correction needs little under-relaxation: 0.8 takes ~9 iterations per step
+            // where SIMPLE's classic 0.3 takes ~31 (measured: an 8 m × 80 mm pipe with plugs).
             relax_velocity: 0.7,
-            relax_pressure: 0.3,
+            relax_pressure: 0.8,
         });
         let n = grid.len();
         Self {
@@ -666,6 +694,7 @@ impl SimpleTubeGas {
             phi: vec![1.0; n],
             p: vec![0.0; n],
             steps: 0,
+            last_iterations: 0,
         }
     }
 
@@ -723,6 +752,7 @@ impl SimpleTubeGas {
                 step: self.steps,
                 reason,
             })?;
+        self.last_iterations = r.iterations;
         if let Some(bad) = self.gas.p.iter().position(|x| !x.is_finite()) {
             return Err(GasError::NonFinite {
                 step: self.steps,
