@@ -439,6 +439,13 @@ fn main() -> ExitCode {
                 duration,
                 progress: !quiet,
             };
+            // Ctrl-C / SIGTERM: end at the next sample with every output written. (A second
+            // signal while it finishes changes nothing; failing to install it only loses this.)
+            if let Err(e) = ctrlc::set_handler(|| {
+                plugflow::run::INTERRUPT.store(true, std::sync::atomic::Ordering::Relaxed)
+            }) {
+                eprintln!("warning: no Ctrl-C handler ({e}); an interrupt will lose the summary");
+            }
             match run(&s, &opts) {
                 Ok(outcome) => {
                     let sm = &outcome.summary;
@@ -515,6 +522,10 @@ fn main() -> ExitCode {
                 Err(RunError::Scene(e)) => {
                     eprintln!("error: {e}");
                     ExitCode::from(2)
+                }
+                Err(e @ RunError::Interrupted { .. }) => {
+                    eprintln!("{e}");
+                    ExitCode::from(130)
                 }
                 Err(e) => {
                     eprintln!("error: {e}");

@@ -25,9 +25,16 @@ use crate::scene::{Scene, SceneError};
 use crate::Real;
 use plugflow_coupling::{ExchangeError, Verdict};
 
+/// Set (by the CLI's SIGINT/SIGTERM handler) to end the running run at its next sample,
+/// with every output written as for a finished run and the summary's status saying so.
+pub static INTERRUPT: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
+
 /// What can end a run.
 #[derive(Debug, thiserror::Error)]
 pub enum RunError {
+    /// Stopped on request (Ctrl-C, SIGTERM); the outputs hold the run up to then.
+    #[error("interrupted at t = {time:.6} s; outputs hold the run up to then")]
+    Interrupted { time: Real },
     /// The scene is wrong.
     #[error(transparent)]
     Scene(#[from] SceneError),
@@ -333,6 +340,10 @@ pub fn run(scene: &Scene, opts: &RunOptions) -> Result<RunOutcome, RunError> {
             }
         }
         samples_taken += 1;
+        if INTERRUPT.load(std::sync::atomic::Ordering::Relaxed) {
+            failure = Some(RunError::Interrupted { time: dem.time() });
+            break 'run;
+        }
         if let Some(b) = &bar {
             b.set_position(done);
             b.set_message(format!(
@@ -371,7 +382,11 @@ pub fn run(scene: &Scene, opts: &RunOptions) -> Result<RunOutcome, RunError> {
         }
     });
     let summary = json!({
-        "status": match &failure { None => "completed".to_string(), Some(e) => format!("failed: {e}") },
+        "status": match &failure {
+            None => "completed".to_string(),
+            Some(e @ RunError::Interrupted { .. }) => e.to_string(),
+            Some(e) => format!("failed: {e}"),
+        },
         "scene": f.name,
         "engine": dem.engine_name(),
         "engine_version": dem.engine_version(),

@@ -400,3 +400,65 @@ fn study_measures_error_against_run_time() {
     assert!(text.contains("--exact"), "{text}");
     std::fs::remove_dir_all(&out).ok();
 }
+
+#[test]
+fn interrupt_ends_the_run_with_every_output_written() {
+    // Ctrl-C (SIGINT) in the middle of a 60 s run: the run ends at its next sample, writes
+    // the summary (status "interrupted at t = …", the simulated time so far), the figures
+    // and run.h5, and exits with 130 (the shell's code for an interrupt).
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let out = std::env::temp_dir().join(format!("plugflow-interrupt-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&out);
+    let case = root.join("cases/vertical_plug.toml");
+    let mut child = std::process::Command::new(env!("CARGO_BIN_EXE_plugflow"))
+        .args([
+            "run",
+            case.to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+            "--duration",
+            "60",
+            "--set",
+            "output.settling_time=0 s",
+            "--quiet",
+        ])
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    // Let it run a while (run.h5 appears once the run has started).
+    let start = std::time::Instant::now();
+    while !out.join("run.h5").exists() && start.elapsed().as_secs() < 60 {
+        std::thread::sleep(std::time::Duration::from_millis(100));
+    }
+    std::thread::sleep(std::time::Duration::from_secs(2));
+    let killed = std::process::Command::new("kill")
+        .args(["-INT", &child.id().to_string()])
+        .status()
+        .unwrap();
+    assert!(killed.success());
+    let o = child.wait_with_output().unwrap();
+    let text = format!(
+        "{}{}",
+        String::from_utf8_lossy(&o.stdout),
+        String::from_utf8_lossy(&o.stderr)
+    );
+    assert_eq!(o.status.code(), Some(130), "{text}");
+    assert!(text.contains("interrupted at t ="), "{text}");
+    let s: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
+    let status = s["status"].as_str().unwrap();
+    assert!(status.starts_with("interrupted at t ="), "{status}");
+    let t = s["simulated_time_s"].as_f64().unwrap();
+    assert!(t > 0.0 && t < 60.0, "simulated {t} s");
+    assert!(out.join("pressure_drop.png").exists());
+    assert!(out.join("porosity_tz.png").exists());
+    let f = hdf5::File::open(out.join("run.h5")).unwrap();
+    let time: Vec<f64> = f.dataset("time").unwrap().read_raw().unwrap();
+    assert!(
+        (time.last().unwrap() - t).abs() < 1e-9,
+        "{:?} vs {t}",
+        time.last()
+    );
+    let _ = std::fs::remove_dir_all(&out);
+}
