@@ -410,7 +410,7 @@ fn interrupt_ends_the_run_with_every_output_written() {
     let out = std::env::temp_dir().join(format!("plugflow-interrupt-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&out);
     let case = root.join("cases/vertical_plug.toml");
-    let mut child = std::process::Command::new(env!("CARGO_BIN_EXE_plugflow"))
+    let child = std::process::Command::new(env!("CARGO_BIN_EXE_plugflow"))
         .args([
             "run",
             case.to_str().unwrap(),
