@@ -140,9 +140,9 @@ pub struct Coupler {
     /// Exchanges so far.
     exchanges: u64,
     forces: Vec<Vec3>,
-    /// The largest grain id seen at the last exchange (None before the first): engines
-    /// number grains in the order they create them, so larger ids are grains fed since.
-    max_id_seen: Option<u64>,
+    /// Grains with ids from this one on are new since the last exchange (None before the
+    /// first): engines number grains in the order they create them.
+    first_new_id: Option<u64>,
 }
 
 /// Every this many exchanges the gas step is also taken as two half steps (from the same
@@ -175,7 +175,7 @@ impl Coupler {
             doubling_sum: 0.0,
             exchanges: 0,
             forces: Vec::new(),
-            max_id_seen: None,
+            first_new_id: None,
         }
     }
 
@@ -192,9 +192,9 @@ impl Coupler {
             // the deposit's).
             let fed = &mut self.fields.fed_solid;
             fed.clear();
-            if let Some(seen) = self.max_id_seen {
+            if let Some(first_new) = self.first_new_id {
                 for (i, st) in self.fields.stencils.iter().enumerate() {
-                    let (Some(st), true) = (st, p.id[i] > seen) else {
+                    let (Some(st), true) = (st, p.id[i] >= first_new) else {
                         continue;
                     };
                     if fed.is_empty() {
@@ -209,7 +209,8 @@ impl Coupler {
                     *f /= vol.max(1e-300);
                 }
             }
-            self.max_id_seen = p.id.iter().copied().max().or(self.max_id_seen);
+            let floor = self.first_new_id.unwrap_or(0);
+            self.first_new_id = Some(p.id.iter().map(|&id| id + 1).fold(floor, u64::max));
             self.timer.add("deposit", t.elapsed().as_secs_f64());
         }
         let nodes = grid.len();
