@@ -174,52 +174,49 @@ impl SimpleGas {
             .collect()
     }
 
-    /// Density on x-face i of row j.
-    fn rho_u(&self, i: usize, j: usize) -> Real {
+    /// A cell-centred field on x-face i of row j: the mean of the two cells beside it, the
+    /// one cell's value on the inlet and outlet faces.
+    fn on_x_face(&self, field: &[Real], i: usize, j: usize) -> Real {
         let nx = self.params.nx;
         if i == 0 {
-            self.rho[self.c(0, j)]
+            field[self.c(0, j)]
         } else if i == nx {
-            self.rho[self.c(nx - 1, j)]
+            field[self.c(nx - 1, j)]
         } else {
-            0.5 * (self.rho[self.c(i - 1, j)] + self.rho[self.c(i, j)])
+            0.5 * (field[self.c(i - 1, j)] + field[self.c(i, j)])
         }
+    }
+
+    /// A cell-centred field on y-face j of column i (the wall faces: the one cell's value).
+    fn on_y_face(&self, field: &[Real], i: usize, j: usize) -> Real {
+        let ny = self.params.ny;
+        if j == 0 {
+            field[self.c(i, 0)]
+        } else if j == ny {
+            field[self.c(i, ny - 1)]
+        } else {
+            0.5 * (field[self.c(i, j - 1)] + field[self.c(i, j)])
+        }
+    }
+
+    /// Density on x-face i of row j.
+    fn rho_u(&self, i: usize, j: usize) -> Real {
+        self.on_x_face(&self.rho, i, j)
     }
 
     /// Density on y-face j of column i.
     fn rho_v(&self, i: usize, j: usize) -> Real {
-        let ny = self.params.ny;
-        if j == 0 {
-            self.rho[self.c(i, 0)]
-        } else if j == ny {
-            self.rho[self.c(i, ny - 1)]
-        } else {
-            0.5 * (self.rho[self.c(i, j - 1)] + self.rho[self.c(i, j)])
-        }
+        self.on_y_face(&self.rho, i, j)
     }
 
     /// Porosity on x-face i of row j.
     fn eps_u(&self, i: usize, j: usize) -> Real {
-        let nx = self.params.nx;
-        if i == 0 {
-            self.porosity[self.c(0, j)]
-        } else if i == nx {
-            self.porosity[self.c(nx - 1, j)]
-        } else {
-            0.5 * (self.porosity[self.c(i - 1, j)] + self.porosity[self.c(i, j)])
-        }
+        self.on_x_face(&self.porosity, i, j)
     }
 
     /// Porosity on y-face j of column i.
     fn eps_v(&self, i: usize, j: usize) -> Real {
-        let ny = self.params.ny;
-        if j == 0 {
-            self.porosity[self.c(i, 0)]
-        } else if j == ny {
-            self.porosity[self.c(i, ny - 1)]
-        } else {
-            0.5 * (self.porosity[self.c(i, j - 1)] + self.porosity[self.c(i, j)])
-        }
+        self.on_y_face(&self.porosity, i, j)
     }
 
     /// Interphase coefficient β at every cell from the current slip, kg/(m³ s).
