@@ -473,8 +473,21 @@ fn preflight(dir: &std::path::Path, commands: &[String]) -> Result<(), String> {
     let run = || {
         let _ = std::fs::remove_file(&screen);
         let _ = std::fs::remove_file(dir.join("preflight.log"));
-        std::process::Command::new("liggghts")
-            .arg("-in")
+        let mut cmd = std::process::Command::new("liggghts");
+        // An MPI already started in this process (a LIGGGHTS engine opened in it, e.g. by
+        // another test's thread) leaves OpenMPI/PMIx variables in the environment; a child
+        // that inherits them tries to join that singleton and dies without a word. The
+        // child is a fresh singleton of its own.
+        for (key, _) in std::env::vars_os() {
+            let k = key.to_string_lossy();
+            if ["OMPI_", "PMIX_", "OPAL_", "PRTE_"]
+                .iter()
+                .any(|p| k.starts_with(p))
+            {
+                cmd.env_remove(&key);
+            }
+        }
+        cmd.arg("-in")
             .arg(&input)
             .arg("-log")
             .arg(dir.join("preflight.log"))
@@ -491,8 +504,8 @@ fn preflight(dir: &std::path::Path, commands: &[String]) -> Result<(), String> {
             })
     };
     // A child that fails without a word (not even LIGGGHTS's banner) never read the input:
-    // its launch failed (seen here about once in eight under load, exit 1 and empty files).
-    // Try it again, up to three times, before reporting.
+    // its launch failed (seen about once in eight under load, exit 1 and empty files, before
+    // the MPI variables were cleared). Try it again, up to five times with growing pauses.
     let silent = |out: &std::process::Output| {
         !out.status.success()
             && out.stdout.is_empty()
@@ -503,10 +516,11 @@ fn preflight(dir: &std::path::Path, commands: &[String]) -> Result<(), String> {
                 .is_empty()
     };
     let mut out = run()?;
-    for _ in 0..3 {
+    for k in 0..5 {
         if !silent(&out) {
             break;
         }
+        std::thread::sleep(std::time::Duration::from_millis(200 << k));
         out = run()?;
     }
     if out.status.success() {
