@@ -270,7 +270,7 @@ impl SimpleGas {
             *m -= r * f;
         }
         self.fed_solid.clear();
-        let r = self.iterate(Some((dt, old, mass_old.clone())), tol, max_iter);
+        let r = self.iterate(Some((dt, old, mass_old)), tol, max_iter);
         self.prev_mass = Some(if r.is_ok() {
             self.cell_mass()
         } else {
