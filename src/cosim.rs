@@ -114,7 +114,7 @@ pub fn coupling_from_scene(scene: &Scene, dem: &DemConfig) -> Result<Option<Coup
             // τ = m / (V β/(1−ε)) = ρ_s ε d² / (150 (1 − ε) μ) at ε = 0.4.
             let phi = g.porosity_min.0.max(0.4);
             let tau = dem.density * phi * d_mean * d_mean / (150.0 * (1.0 - phi) * g.viscosity.si);
-            let smallest = grid.volume.iter().copied().fold(Real::INFINITY, Real::min);
+            let smallest = grid.smallest_open_volume();
             let grain = 4.0 / 3.0 * std::f64::consts::PI * dem.radius_min.powi(3);
             let checks = vec![
                 check_drag_relaxation(tau, phi, interval),
@@ -176,7 +176,7 @@ pub fn coupling_checks(
     // the clamp's lower bound if that is looser.
     let phi = params.porosity_min.max(0.4);
     let tau = dem.density * (1.0 - phi) * carman_kozeny(d, phi) / (params.viscosity * phi);
-    let smallest = grid.volume.iter().copied().fold(Real::INFINITY, Real::min);
+    let smallest = grid.smallest_open_volume();
     let grain = 4.0 / 3.0 * std::f64::consts::PI * r_min.powi(3);
     vec![
         check_drag_relaxation(tau, phi, interval),

@@ -66,7 +66,15 @@ pub struct TubeGrid {
     pub face_y: Vec<Real>,
     /// Open area of each node's cell across the axis, m² (per slice, index i + nx j).
     pub face_z: Vec<Real>,
+    /// Columns (index i + nx j) that take part: open across at least
+    /// [`OPEN_FRACTION`] of the largest column's area. A sliver the wall cuts off a corner
+    /// cell would hold a porosity dominated by single grains (and a gas cell of no volume):
+    /// grains weigh on the open nodes only.
+    pub open: Vec<bool>,
 }
+
+/// Least open cross-section of a column, as a share of the largest, for it to carry nodes.
+pub const OPEN_FRACTION: Real = 0.1;
 
 /// Tent weights of one grain: up to 8 (node, weight) pairs.
 #[derive(Debug, Clone, Copy, Default)]
@@ -155,6 +163,11 @@ impl TubeGrid {
                 face_y[i + nx * j] = open_len(w, lo, hi.max(lo)) * dz;
             }
         }
+        let largest = face_z.iter().copied().fold(0.0, Real::max);
+        let open: Vec<bool> = face_z
+            .iter()
+            .map(|&a| a > 0.0 && a >= OPEN_FRACTION * largest)
+            .collect();
         let volume = (0..nz)
             .flat_map(|_| face_z.iter().map(|a| a * dz))
             .collect();
@@ -175,6 +188,7 @@ impl TubeGrid {
             face_x,
             face_y,
             face_z,
+            open,
         }
     }
 
@@ -194,6 +208,20 @@ impl TubeGrid {
         (k * self.ny + j) * self.nx + i
     }
 
+    /// True when node n's column takes part (see [`TubeGrid::open`]).
+    #[inline]
+    pub fn is_open(&self, n: usize) -> bool {
+        self.open[n % (self.nx * self.ny)]
+    }
+
+    /// Smallest volume of an open node's cell, m³.
+    pub fn smallest_open_volume(&self) -> Real {
+        (0..self.len())
+            .filter(|&n| self.is_open(n))
+            .map(|n| self.volume[n])
+            .fold(Real::INFINITY, Real::min)
+    }
+
     /// Tube-frame coordinates (s along the axis, u, w across) of a point.
     #[inline]
     pub fn local(&self, x: Vec3) -> (Real, Real, Real) {
@@ -206,7 +234,9 @@ impl TubeGrid {
         (d(self.axis), d(self.e1), d(self.e2))
     }
 
-    /// Tent weights of a point (eq. 7), clamped onto the node hull so they sum to one.
+    /// Tent weights of a point (eq. 7), clamped onto the node hull so they sum to one; the
+    /// weights of closed nodes (wall slivers, see [`TubeGrid::open`]) go to the open ones
+    /// in proportion, so no grain volume is lost.
     pub fn stencil(&self, x: Vec3) -> Stencil {
         let (s, u, w) = self.local(x);
         let axis_weights = |coord: Real, lo: Real, h: Real, n: usize| -> ([usize; 2], [Real; 2]) {
@@ -222,18 +252,30 @@ impl TubeGrid {
         let (kx, wx) = axis_weights(u, -self.radius, self.dx, self.nx);
         let (ky, wy) = axis_weights(w, -self.radius, self.dy, self.ny);
         let mut st = Stencil::default();
+        let mut dropped = false;
         for a in 0..2 {
             for b in 0..2 {
                 for c in 0..2 {
                     let weight = wz[a] * wx[b] * wy[c];
-                    if weight > 0.0 {
-                        let n = st.len as usize;
-                        st.node[n] = self.node(kz[a], kx[b], ky[c]) as u32;
-                        st.weight[n] = weight;
-                        st.len += 1;
+                    if weight <= 0.0 {
+                        continue;
                     }
+                    if !self.open[kx[b] + self.nx * ky[c]] {
+                        dropped = true;
+                        continue;
+                    }
+                    let n = st.len as usize;
+                    st.node[n] = self.node(kz[a], kx[b], ky[c]) as u32;
+                    st.weight[n] = weight;
+                    st.len += 1;
                 }
             }
+        }
+        let kept: Real = st.weight[..st.len as usize].iter().sum();
+        if dropped && kept > 0.0 {
+            st.weight[..st.len as usize]
+                .iter_mut()
+                .for_each(|w| *w /= kept);
         }
         st
     }
@@ -284,7 +326,12 @@ pub fn deposit(grid: &TubeGrid, x: &[Vec3], v: &[Vec3], r: &[Real], out: &mut Gr
     out.porosity.clear();
     out.velocity.clear();
     for j in 0..n {
-        out.porosity.push(1.0 - solid[j] / grid.volume[j]);
+        // (Closed nodes hold no grain and may have no volume: empty.)
+        out.porosity.push(if solid[j] > 0.0 {
+            1.0 - solid[j] / grid.volume[j]
+        } else {
+            1.0
+        });
         out.velocity.push(if solid[j] > 0.0 {
             [
                 momentum[j][0] / solid[j],
@@ -347,6 +394,25 @@ mod tests {
             let sum: Real = st.weight[..st.len as usize].iter().sum();
             assert!((sum - 1.0).abs() < 1e-14, "{sum}");
         }
+    }
+
+    /// On a fine cross-section (6 × 6 over the tube's square) the corner cells keep 2.9 % of
+    /// a full cell's area: closed. A grain near such a corner weighs only on open nodes, its
+    /// weights still summing to one; the inner columns stay open.
+    #[test]
+    fn closed_corner_cells_take_no_weight() {
+        let g = TubeGrid::new([0.0; 3], [0.0, 0.0, 1.0], 3.5e-3, 0.1, 10, 6, 6);
+        let closed: Vec<usize> = (0..36).filter(|&c| !g.open[c]).collect();
+        assert_eq!(closed, vec![0, 5, 30, 35]);
+        // Near the (−, −) corner, at 45°: the tent reaches the corner column's node.
+        let r = 3.2e-3 / 2f64.sqrt();
+        let st = g.stencil([-r, -r, 0.05]);
+        let sum: Real = st.weight[..st.len as usize].iter().sum();
+        assert!((sum - 1.0).abs() < 1e-14, "{sum}");
+        assert!(st.node[..st.len as usize]
+            .iter()
+            .all(|&n| g.is_open(n as usize)));
+        assert!(g.smallest_open_volume() > 0.5 * g.volume[g.node(0, 1, 0)]);
     }
 
     #[test]

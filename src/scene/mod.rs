@@ -686,11 +686,25 @@ fn check_gas(f: &SceneFile) -> Result<(), SceneError> {
             "needs at least 2 nodes along the axis",
         ));
     }
-    if simple && (nx != 1 || !(1..=8).contains(&ny)) {
+    if simple && nx == 1 && !(1..=8).contains(&ny) {
         return Err(field_err(
             "gas.grid",
-            "the simple gas is 2D (the plane of the axis and the second cross direction): \
-             give [nz, 1, ny] with 1 ≤ ny ≤ 8",
+            "the 2D simple gas (one node across e1: the plane of the axis and e2) takes \
+             1 ≤ ny ≤ 8 rows",
+        ));
+    }
+    if simple && nx > 1 && (ny < 2 || nx > 64 || ny > 64) {
+        return Err(field_err(
+            "gas.grid",
+            "the 3D simple gas (cut-cell tube) takes 2 to 64 nodes in each cross direction",
+        ));
+    }
+    let slab = f.tube.as_ref().is_some_and(|t| t.slab.is_some());
+    if simple && nx > 1 && slab {
+        return Err(field_err(
+            "gas.grid",
+            "a quasi-2D slab (tube.slab) takes the 2D simple gas, one node across e1: \
+             [nz, 1, ny]",
         ));
     }
     if !simple && (!(1..=2).contains(&nx) || !(1..=2).contains(&ny)) {
