@@ -4,7 +4,7 @@
 //! Random sequential addition saturates near 38 % solids in bulk (less against walls), so a
 //! request denser than that places fewer grains; callers see how many were placed.
 
-use super::vec3::{add, dot, norm2, scale, sub};
+use super::vec3::{add, norm2, scale, sub};
 use crate::rng::Rng;
 use crate::{Real, Vec3};
 use std::collections::HashMap;
@@ -26,17 +26,9 @@ pub enum Region {
     Box { lo: Vec3, hi: Vec3 },
 }
 
-/// Two unit vectors perpendicular to `axis` and to each other.
-pub fn perpendicular_basis(axis: Vec3) -> (Vec3, Vec3) {
-    let helper = if axis[0].abs() < 0.9 {
-        [1.0, 0.0, 0.0]
-    } else {
-        [0.0, 1.0, 0.0]
-    };
-    let e1 = super::vec3::normalized(sub(helper, scale(axis, dot(helper, axis))));
-    let e2 = super::vec3::cross(axis, e1);
-    (e1, e2)
-}
+/// Two unit vectors perpendicular to `axis` and to each other (the gas grid's frame: the
+/// slab's walls and the grid's first cross direction must agree).
+pub use plugflow_coupling::grid::perpendicular_basis;
 
 impl Region {
     /// A uniformly random centre for a grain of radius `r` that keeps it inside.

@@ -67,8 +67,9 @@ fn axis_index(axis: [f64; 3]) -> Option<(usize, f64)> {
 
 const AXES: [&str; 3] = ["x", "y", "z"];
 
-/// Map a checked scene.
-pub fn map(scene: &Scene, cfg: &DemConfig) -> Result<Mapped, Refusal> {
+/// Quasi-2D slabs are the native engine's alone (LIGGGHTS's inlet inserts grains across the
+/// whole tube, and its walls are not set up for them).
+fn refuse_slab(cfg: &DemConfig) -> Result<(), Refusal> {
     if cfg.tube.is_some_and(|t| t.slab_half.is_some()) {
         return Err(refuse(
             "tube.slab",
@@ -76,6 +77,12 @@ pub fn map(scene: &Scene, cfg: &DemConfig) -> Result<Mapped, Refusal> {
              whole tube); use dem.engine = \"native\"",
         ));
     }
+    Ok(())
+}
+
+/// Map a checked scene.
+pub fn map(scene: &Scene, cfg: &DemConfig) -> Result<Mapped, Refusal> {
+    refuse_slab(cfg)?;
     if cfg.inlet.is_some_and(|i| i.until.is_some()) {
         return Err(refuse(
             "inlet.until",
@@ -324,12 +331,7 @@ const REFUSED: [&str; 8] = [
 
 /// A user's own LIGGGHTS input (CFDEMcoupling style) with plugflow's coupling fixes.
 pub fn map_user(cfg: &DemConfig, path: &str) -> Result<Mapped, Refusal> {
-    if cfg.tube.is_some_and(|t| t.slab_half.is_some()) {
-        return Err(refuse(
-            "tube.slab",
-            "quasi-2D slabs are not mapped to LIGGGHTS; use dem.engine = \"native\"",
-        ));
-    }
+    refuse_slab(cfg)?;
     let field = "dem.liggghts_input";
     let text = std::fs::read_to_string(path)
         .map_err(|e| refuse(field, format!("cannot read `{path}`: {e}")))?;
