@@ -101,7 +101,8 @@ pub struct GasSpec {
     pub superficial_velocity: Option<Q<Velocity>>,
     /// Volume flow of gas at P0, m³/s (v_s = 4 V̇ / (π D²)).
     pub flow: Option<Q<VolumeFlow>>,
-    /// Nodes along the axis and across the tube, e.g. `[150, 2, 2]` (across: 1 or 2).
+    /// Nodes along the axis and across the tube, e.g. `[150, 2, 2]`. d'Arcy: 1 or 2 across;
+    /// simple: `[nz, 1, ny]` (2D, ny ≤ 8) or 2–64 in each cross direction (3D cut-cell tube).
     pub grid: [usize; 3],
     /// Time scheme. Default `bdf2`.
     #[serde(default = "default_scheme")]
