@@ -85,6 +85,11 @@ pub struct NeighborList {
     /// Live histories keyed by (smaller id, larger id), as seen from the smaller id; filled
     /// by [`NeighborList::stash_history`] before grain indices change.
     saved: Vec<((u64, u64), Vec3)>,
+    /// Scratch for [`NeighborList::restore_history`]: new index of each id (offset by the
+    /// smallest), saved contacts by row, and their row offsets.
+    index_of_id: Vec<u32>,
+    contacts: Vec<(u32, u32, Vec3)>,
+    contact_start: Vec<u32>,
     /// The list matches the current grain order.
     valid: bool,
     /// Builds so far.
@@ -173,25 +178,82 @@ impl NeighborList {
         self.history.clear();
         if keep_history {
             self.history.resize(self.partner.len(), [0.0; 3]);
-            let saved = std::mem::take(&mut self.saved);
-            if !saved.is_empty() {
-                for i in 0..n {
-                    for k in self.start[i] as usize..self.start[i + 1] as usize {
-                        let (a, b) = (state.id[i], state.id[self.partner[k] as usize]);
-                        let key = if a < b { (a, b) } else { (b, a) };
-                        if let Ok(p) = saved.binary_search_by_key(&key, |e| e.0) {
-                            let h = saved[p].1;
-                            self.history[k] = if a < b { h } else { [-h[0], -h[1], -h[2]] };
-                        }
-                    }
-                }
-            }
+            self.restore_history(state);
         }
         self.saved.clear();
         self.valid = true;
         self.x_at_build.clear();
         self.x_at_build.extend_from_slice(&state.position);
         self.builds += 1;
+    }
+
+    /// Put the saved histories back on the new list's pairs: each saved contact goes to the
+    /// row of its grain with the smaller new index (grains looked up by id in a dense table
+    /// over the ids present), then each row's pairs look through that row's few contacts.
+    /// Linear in pairs + contacts (a binary search per pair cost half of a rebuild).
+    fn restore_history(&mut self, state: &ParticleState) {
+        let n = state.len();
+        if self.saved.is_empty() || n == 0 {
+            return;
+        }
+        let lo = state.id.iter().copied().min().unwrap_or(0);
+        let hi = state.id.iter().copied().max().unwrap_or(0);
+        let slot = &mut self.index_of_id;
+        slot.clear();
+        slot.resize((hi - lo + 1) as usize, u32::MAX);
+        for (i, &id) in state.id.iter().enumerate() {
+            slot[(id - lo) as usize] = i as u32;
+        }
+        let find = |id: u64| -> Option<usize> {
+            if id < lo || id > hi {
+                return None;
+            }
+            let i = slot[(id - lo) as usize];
+            (i != u32::MAX).then_some(i as usize)
+        };
+        // Contacts of both grains still present, as (row, partner, history seen from row).
+        let contacts = &mut self.contacts;
+        contacts.clear();
+        for &((a, b), h) in &self.saved {
+            let (Some(ia), Some(ib)) = (find(a), find(b)) else {
+                continue;
+            };
+            let (i, j) = if ia < ib { (ia, ib) } else { (ib, ia) };
+            // Saved as seen from the smaller id, a.
+            let seen = if state.id[i] == a {
+                h
+            } else {
+                [-h[0], -h[1], -h[2]]
+            };
+            contacts.push((i as u32, j as u32, seen));
+        }
+        // Bucket by row (counting sort).
+        let row_start = &mut self.contact_start;
+        row_start.clear();
+        row_start.resize(n + 1, 0);
+        for c in contacts.iter() {
+            row_start[c.0 as usize + 1] += 1;
+        }
+        for i in 0..n {
+            row_start[i + 1] += row_start[i];
+        }
+        let mut by_row = vec![(0u32, [0.0; 3]); contacts.len()];
+        let mut fill = row_start.clone();
+        for &(i, j, h) in contacts.iter() {
+            by_row[fill[i as usize] as usize] = (j, h);
+            fill[i as usize] += 1;
+        }
+        for i in 0..n {
+            let mine = &by_row[row_start[i] as usize..row_start[i + 1] as usize];
+            if mine.is_empty() {
+                continue;
+            }
+            for k in self.start[i] as usize..self.start[i + 1] as usize {
+                if let Some(&(_, h)) = mine.iter().find(|e| e.0 == self.partner[k]) {
+                    self.history[k] = h;
+                }
+            }
+        }
     }
 
     /// Save the shear history of every live contact by grain ids. Call before grains are
@@ -215,7 +277,6 @@ impl NeighborList {
                 }
             }
         }
-        self.saved.sort_unstable_by_key(|e| e.0);
         self.valid = false;
     }
 }
