@@ -2,9 +2,9 @@
 //! 80 mm pipe's first 2 m for 2 s, quasi-2D slab, SIMPLE + Ergun/Wen–Yu, ideal gas), run
 //! end to end through the CLI. The paper describes what happens (§4): fed grains pile up at
 //! the pipe's bottom into dunes; a dune that reaches the pipe's top is pushed on by the gas as
-//! a plug; grains left behind form a stationary layer. The test reads the particle snapshots
-//! of run.h5 and checks each of these, the slab holding the grains, and the pressure
-//! transducers' output. (The full case, 8 m and 18 s, is cases/xiang_mcglinchey.toml; its
+//! a plug; later (5.2 s, 4.2 m along its pipe) a plug collapses into a stationary layer. The
+//! test reads the particle snapshots of run.h5 and checks the first two, the slab holding the
+//! grains, and the pressure transducers' output; the collapse lies beyond this variant. (The full case, 8 m and 18 s, is cases/xiang_mcglinchey.toml; its
 //! DP1 trace against the paper's 25 mbar peaks is in cases/README.md.)
 
 mod common;
@@ -12,7 +12,7 @@ mod common;
 use common::plugflow;
 
 #[test]
-fn dunes_grow_into_plugs_over_a_stationary_layer() {
+fn dunes_grow_at_the_bottom_into_plugs_the_gas_pushes_on() {
     let case = concat!(
         env!("CARGO_MANIFEST_DIR"),
         "/cases/xiang_mcglinchey_short.toml"
@@ -35,6 +35,7 @@ fn dunes_grow_into_plugs_over_a_stationary_layer() {
     names.sort();
     assert_eq!(names.len(), 20, "snapshots every 0.1 s: {names:?}");
     let mut plug_seen = None;
+    let mut dune_frames = 0;
     let mut last = None;
     for name in &names {
         let g = f.group(&format!("particles/{name}")).unwrap();
@@ -65,25 +66,40 @@ fn dunes_grow_into_plugs_over_a_stationary_layer() {
         if let Some(k) = (7..bins - 2).find(|&k| full[k] && full[k + 1] && full[k + 2]) {
             plug_seen.get_or_insert((t, k as f64 * 0.016));
         }
+        // Until then the grains past the feed zone lie at the bottom, a dune: more than
+        // two thirds in the pipe's lower half (a suspension would fill both halves alike;
+        // two thirds leaves room for the dune's crest above the axis).
+        if plug_seen.is_none() {
+            let past: Vec<f64> = x
+                .rows()
+                .into_iter()
+                .filter(|r| r[0] > 0.1)
+                .map(|r| r[2])
+                .collect();
+            if past.len() >= 100 {
+                let low = past.iter().filter(|&&z| z < 0.0).count() as f64 / past.len() as f64;
+                assert!(
+                    low > 2.0 / 3.0,
+                    "t = {t}: {low:.2} of the grains past 0.1 m in the lower half"
+                );
+                dune_frames += 1;
+            }
+        }
         last = Some((t, x, v));
     }
+    assert!(
+        dune_frames >= 3,
+        "{dune_frames} snapshots of the dune phase"
+    );
     let (t_plug, x_plug) = plug_seen.expect("no dune ever reached the pipe's top");
     println!("first plug past the feed zone: t = {t_plug:.2} s at x = {x_plug:.3} m");
-    // In the last snapshot: grains resting in a layer (slower than 5 cm/s, at the bottom
-    // half) while the grains on the whole are conveyed.
+    // In the last snapshot the grains on the whole are conveyed. (The paper's stationary
+    // layer is left by a plug that collapses, at 5.2 s and 4.2 m along its pipe: beyond this
+    // variant's 2 m and 2 s; the full case's porosity(t, z) shows it, cases/README.md.)
     let (t, x, v) = last.unwrap();
     let n = x.nrows();
-    let resting = (0..n)
-        .filter(|&i| {
-            let s = (v[[i, 0]].powi(2) + v[[i, 1]].powi(2) + v[[i, 2]].powi(2)).sqrt();
-            s < 0.05 && x[[i, 2]] < 0.0
-        })
-        .count();
     let mean_vx = (0..n).map(|i| v[[i, 0]]).sum::<f64>() / n as f64;
-    println!(
-        "t = {t:.2} s: {n} grains, {resting} resting in the lower half, mean v_x {mean_vx:.2} m/s"
-    );
-    assert!(resting as f64 > 0.05 * n as f64, "{resting} of {n} at rest");
+    println!("t = {t:.2} s: {n} grains, mean v_x {mean_vx:.2} m/s");
     assert!(mean_vx > 0.2, "mean axial velocity {mean_vx} m/s");
 
     // The transducers: one row per sample, Δp falling downstream on average, the plugs

@@ -275,6 +275,7 @@ impl DemConfig {
                     axis,
                     radius,
                 },
+                friction: None,
             });
             if t.inlet_end == TubeEnd::Closed {
                 walls.push(Wall {
@@ -283,6 +284,7 @@ impl DemConfig {
                         point: origin,
                         normal: axis,
                     },
+                    friction: None,
                 });
             }
             if t.outlet_end == TubeEnd::Closed {
@@ -292,6 +294,7 @@ impl DemConfig {
                         point: super::vec3::add(origin, scale(axis, length)),
                         normal: scale(axis, -1.0),
                     },
+                    friction: None,
                 });
             }
             let slab_half = match t.slab {
@@ -311,6 +314,7 @@ impl DemConfig {
                 Some(w) => {
                     let (e1, _) = super::placement::perpendicular_basis(axis);
                     let h = 0.5 * w.si;
+                    let slab_friction = t.slab_friction.map_or(0.0, |m| m.0);
                     for (name, sign) in [("slab_front", 1.0), ("slab_back", -1.0)] {
                         walls.push(Wall {
                             name: name.into(),
@@ -318,6 +322,7 @@ impl DemConfig {
                                 point: super::vec3::add(origin, scale(e1, sign * h)),
                                 normal: scale(e1, -sign),
                             },
+                            friction: Some(slab_friction),
                         });
                     }
                     Some(h)
@@ -361,6 +366,7 @@ impl DemConfig {
                     point: w.point.map(|q| q.si),
                     normal: normalized(w.normal.map(|q| q.0)),
                 },
+                friction: None,
             });
         }
         // Inlet.

@@ -103,6 +103,15 @@ pub fn chunk_forces<N: NormalLaw, T: TangentialLaw>(
     for w in out.wall_force.iter_mut() {
         *w = [0.0; 3];
     }
+    // Each wall's tangential law (a wall may carry its own friction).
+    let wall_tangential: Vec<T> = set
+        .walls
+        .iter()
+        .map(|w| match w.friction {
+            Some(mu) => laws.pw_tangential.with_friction(mu),
+            None => laws.pw_tangential.clone(),
+        })
+        .collect();
     for i in lo..hi {
         let xi = g.position[i];
         let vi = g.velocity[i];
@@ -192,7 +201,7 @@ pub fn chunk_forces<N: NormalLaw, T: TangentialLaw>(
                         None => mi.sqrt(),
                     };
                     let normal = laws.pw_normal.evaluate(sqrt_mi, ri, overlap, vn);
-                    let ft = laws.pw_tangential.force(
+                    let ft = wall_tangential[w].force(
                         &normal,
                         vt,
                         n,

@@ -108,13 +108,15 @@ impl Team {
     }
 }
 
-/// Spin politely: pause instructions first, then yield the core (a neighbour rebuild or the
-/// gas step runs serially on member 0), then, idle for long, sleep in 100 µs naps.
+/// Spin politely: pause instructions first (2000 of them, ~40 µs: balanced chunks finish
+/// within that of each other), then yield the core (a neighbour rebuild or the gas step runs
+/// serially on member 0; on a busy machine the partner we wait for may need this core),
+/// then, idle for long, sleep in 100 µs naps.
 fn spin(spins: &mut u32) {
     *spins = spins.saturating_add(1);
-    if *spins < 20_000 {
+    if *spins < 2_000 {
         std::hint::spin_loop();
-    } else if *spins < 30_000 {
+    } else if *spins < 12_000 {
         std::thread::yield_now();
     } else {
         std::thread::sleep(std::time::Duration::from_micros(100));

@@ -25,6 +25,9 @@ pub struct Wall {
     pub name: String,
     /// Geometry.
     pub shape: WallShape,
+    /// Friction coefficient of this wall when it differs from the grain–wall law's
+    /// (the quasi-2D slab's planes stand in for the missing third dimension).
+    pub friction: Option<Real>,
 }
 
 impl Wall {

@@ -430,6 +430,18 @@ fn check(f: &SceneFile) -> Result<(), SceneError> {
         if n == 0.0 {
             return Err(field_err("tube.axis", "must not be the zero vector"));
         }
+        match (t.slab_friction, t.slab) {
+            (Some(_), None) => {
+                return Err(field_err(
+                    "tube.slab_friction",
+                    "applies to the quasi-2D slab's planes; give tube.slab or remove it",
+                ))
+            }
+            (Some(m), Some(_)) if m.0 < 0.0 => {
+                return Err(field_err("tube.slab_friction", "must be ≥ 0"))
+            }
+            _ => {}
+        }
     }
     if let Some(b) = &f.domain {
         for k in 0..3 {

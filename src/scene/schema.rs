@@ -187,6 +187,10 @@ pub struct TubeSpec {
     /// between two planes normal to the gas grid's first cross direction; the gas grid
     /// counts only the slab's volume. At least one grain diameter, below the tube's.
     pub slab: Option<Q<Length>>,
+    /// Friction coefficient of the slab's two planes. Default 0: in the 2D model the slab
+    /// stands for, nothing rubs the grains front and back; give `contact.wall_friction` here
+    /// to model a real Hele-Shaw cell. Needs `slab`.
+    pub slab_friction: Option<Finite>,
 }
 
 fn default_axis() -> [Finite; 3] {

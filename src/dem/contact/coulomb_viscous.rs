@@ -18,6 +18,10 @@ pub struct CoulombViscous {
 impl TangentialLaw for CoulombViscous {
     const USES_HISTORY: bool = false;
 
+    fn with_friction(&self, mu: Real) -> Self {
+        Self { mu, ..self.clone() }
+    }
+
     #[inline(always)]
     fn force(&self, normal: &NormalOut, vt: Vec3, _n: Vec3, _h: &mut Vec3, _dt: Real) -> Vec3 {
         let speed = norm(vt);

@@ -17,6 +17,10 @@ pub struct History {
 impl TangentialLaw for History {
     const USES_HISTORY: bool = true;
 
+    fn with_friction(&self, mu: Real) -> Self {
+        Self { mu }
+    }
+
     #[inline(always)]
     fn force(&self, normal: &NormalOut, vt: Vec3, n: Vec3, h: &mut Vec3, dt: Real) -> Vec3 {
         // Keep the stored shear in the tangent plane as the contact rolls, without losing

@@ -47,6 +47,8 @@ pub trait TangentialLaw: Clone + Send + Sync {
     /// Tangential force on grain i for slip velocity `vt` (m/s, in the tangent plane),
     /// updating the contact's shear `history` (m) over `dt` (s).
     fn force(&self, normal: &NormalOut, vt: Vec3, n: Vec3, history: &mut Vec3, dt: Real) -> Vec3;
+    /// The same law with friction coefficient `mu`.
+    fn with_friction(&self, mu: Real) -> Self;
 }
 
 /// |ln e| / sqrt(π² + ln² e): the damping ratio of a linear spring–dashpot that gives
