@@ -183,16 +183,22 @@ fn elastic_impact_energy_error_converges_with_dt() {
     assert!(order > 1.5, "observed order {order:.2} from {errs:?}");
 }
 
+/// Overlap of a grain (d = 1.4 mm, 937 kg/m³) resting under 1 g on a wall with the HOOKE
+/// contact (t_c = 1e-4 s, e = 0.5; the wall's m* is the grain's mass), m.
+fn hooke_resting_overlap() -> f64 {
+    let r: f64 = 0.7e-3;
+    let m = 937.0 * 4.0 / 3.0 * std::f64::consts::PI * r.powi(3);
+    let kn = m / 2.0 * (std::f64::consts::PI.powi(2) + 0.5f64.ln().powi(2)) / 1e-8;
+    m * 9.81 / kn
+}
+
 #[test]
 fn sliding_grain_decelerates_at_mu_g() {
     // A sliding block without rotation: dv/dt = −μ g exactly while it slides. The history
     // spring saturates at μ F_n within a few steps; 1 % covers that start-up.
     let walls = "[dem]\nrotation = false\n[[walls]]\nname = \"floor\"\npoint = [0, 0, -0.005]\nnormal = [0, 0, 1]";
     let mut dem = engine(&box_scene("[0, 0, -9.81]", HOOKE, walls));
-    let r: f64 = 0.7e-3;
-    let m = 937.0 * 4.0 / 3.0 * std::f64::consts::PI * r.powi(3);
-    let kn = m / 2.0 * (std::f64::consts::PI.powi(2) + 0.5f64.ln().powi(2)) / 1e-8;
-    let rest = m * 9.81 / kn; // static overlap
+    let (r, rest) = (0.7e-3, hooke_resting_overlap());
     dem.insert(&[grain([-0.008, 0.0, -0.005 + r - rest], [0.05, 0.0, 0.0])])
         .unwrap();
     let t = 0.005;
@@ -271,10 +277,7 @@ rotation = false
 "#
     );
     let mut dem = engine(&text);
-    let r: f64 = 0.7e-3;
-    let m = 937.0 * 4.0 / 3.0 * std::f64::consts::PI * r.powi(3);
-    let kn = m / 2.0 * (std::f64::consts::PI.powi(2) + 0.5f64.ln().powi(2)) / 1e-8;
-    let rest = m * 9.81 / kn; // static overlap
+    let (r, rest) = (0.7e-3, hooke_resting_overlap());
     dem.insert(&[grain([0.05, -0.8e-3 + r - rest, 0.0], [0.05, 0.0, 0.0])])
         .unwrap();
     let steps = (0.005 / dem.time_step()).round() as u64;

@@ -34,6 +34,16 @@ impl LawSet {
             LawSet::HertzCoulomb(l) => l.pp_normal.contact_time(m_eff, r_eff, v),
         }
     }
+
+    /// Give each wall its tangential law (see [`Laws::attach_walls`]).
+    pub fn attach_walls(&mut self, walls: &[Wall]) {
+        match self {
+            LawSet::HookeHistory(l) => l.attach_walls(walls),
+            LawSet::HookeCoulomb(l) => l.attach_walls(walls),
+            LawSet::HertzHistory(l) => l.attach_walls(walls),
+            LawSet::HertzCoulomb(l) => l.attach_walls(walls),
+        }
+    }
 }
 
 /// Tube geometry in engine terms.
@@ -169,7 +179,7 @@ impl DemConfig {
         let mu_pp = c.friction.0;
         let mu_pw = c.wall_friction.map(|m| m.0).unwrap_or(mu_pp);
         let gamma_t = c.tangential_damping.map(|g| g.si);
-        let laws = match c.normal {
+        let mut laws = match c.normal {
             NormalLawName::Hooke => {
                 let ratio = c
                     .tangential_stiffness_ratio
@@ -191,12 +201,14 @@ impl DemConfig {
                         pp_tangential: History { mu: mu_pp },
                         pw_normal: pw,
                         pw_tangential: History { mu: mu_pw },
+                        wall_tangential: Vec::new(),
                     }),
                     TangentialLawName::CoulombViscous => LawSet::HookeCoulomb(Laws {
                         pp_normal: pp,
                         pp_tangential: CoulombViscous { mu: mu_pp, gamma_t },
                         pw_normal: pw,
                         pw_tangential: CoulombViscous { mu: mu_pw, gamma_t },
+                        wall_tangential: Vec::new(),
                     }),
                 }
             }
@@ -210,12 +222,14 @@ impl DemConfig {
                         pp_tangential: History { mu: mu_pp },
                         pw_normal: pw,
                         pw_tangential: History { mu: mu_pw },
+                        wall_tangential: Vec::new(),
                     }),
                     TangentialLawName::CoulombViscous => LawSet::HertzCoulomb(Laws {
                         pp_normal: pp,
                         pp_tangential: CoulombViscous { mu: mu_pp, gamma_t },
                         pw_normal: pw,
                         pw_tangential: CoulombViscous { mu: mu_pw, gamma_t },
+                        wall_tangential: Vec::new(),
                     }),
                 }
             }
@@ -369,6 +383,7 @@ impl DemConfig {
                 friction: None,
             });
         }
+        laws.attach_walls(&walls);
         // Inlet.
         let inlet = match (&f.inlet, &tube_geom) {
             (Some(i), Some(t)) => {

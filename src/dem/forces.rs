@@ -22,6 +22,22 @@ pub struct Laws<N, T> {
     pub pw_normal: N,
     /// Grain–wall tangential law.
     pub pw_tangential: T,
+    /// The grain–wall tangential law of each wall, in wall order: `pw_tangential`, or it with
+    /// the wall's own friction ([`LawSet::attach_walls`](super::config::LawSet::attach_walls)).
+    pub wall_tangential: Vec<T>,
+}
+
+impl<N, T: TangentialLaw> Laws<N, T> {
+    /// Build `wall_tangential` for these walls (once, when the walls are known).
+    pub fn attach_walls(&mut self, walls: &[Wall]) {
+        self.wall_tangential = walls
+            .iter()
+            .map(|w| match w.friction {
+                Some(mu) => self.pw_tangential.with_friction(mu),
+                None => self.pw_tangential.clone(),
+            })
+            .collect();
+    }
 }
 
 /// Read-only grain data the force loop needs.
@@ -103,15 +119,6 @@ pub fn chunk_forces<N: NormalLaw, T: TangentialLaw>(
     for w in out.wall_force.iter_mut() {
         *w = [0.0; 3];
     }
-    // Each wall's tangential law (a wall may carry its own friction).
-    let wall_tangential: Vec<T> = set
-        .walls
-        .iter()
-        .map(|w| match w.friction {
-            Some(mu) => laws.pw_tangential.with_friction(mu),
-            None => laws.pw_tangential.clone(),
-        })
-        .collect();
     for i in lo..hi {
         let xi = g.position[i];
         let vi = g.velocity[i];
@@ -201,7 +208,7 @@ pub fn chunk_forces<N: NormalLaw, T: TangentialLaw>(
                         None => mi.sqrt(),
                     };
                     let normal = laws.pw_normal.evaluate(sqrt_mi, ri, overlap, vn);
-                    let ft = wall_tangential[w].force(
+                    let ft = laws.wall_tangential[w].force(
                         &normal,
                         vt,
                         n,
