@@ -3,7 +3,8 @@
 //! no contact history). Prints particle-steps per second for each and, last,
 //! `ratio native/liggghts: X` (one core each). Not a test: numbers depend on the machine.
 //!
-//! cargo bench --bench dem_bench [-- --steps N]
+//! cargo bench --bench dem_bench [-- --steps N] [--native-only]
+//! (`--native-only`: the built-in DEM's two timings alone, for profiling it)
 
 use std::path::Path;
 use std::process::Command;
@@ -78,6 +79,9 @@ fn main() {
     };
     let n1 = native(1);
     println!("native 1 thread : {:.3e} particle-steps/s", n1);
+    if args.iter().any(|a| a == "--native-only") {
+        return;
+    }
     let n2 = native(2);
     println!(
         "native 2 threads: {:.3e} particle-steps/s ({:.2}x its one-thread speed)",

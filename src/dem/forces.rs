@@ -7,7 +7,8 @@
 //! thread count.
 
 use super::contact::{NormalLaw, TangentialLaw};
-use super::vec3::{add_assign, cross, dot, norm2, scale, sub, sub_assign};
+use super::lanes::{Lanes, Num, LANES};
+use super::vec3::{add, add_assign, cross, dot, norm2, scale, sub, sub_assign};
 use super::walls::Wall;
 use crate::{Real, Vec3};
 
@@ -80,6 +81,24 @@ pub struct Spill {
     pub torque: Vec3,
 }
 
+/// Per-chunk scratch of the force phase: the contacts found this step and what each hands
+/// back. Kept between steps so the force loop allocates nothing.
+#[derive(Debug, Clone, Default)]
+pub struct PairScratch {
+    /// Grain–grain: the contact's pair index in the neighbour list (its history slot).
+    pair: Vec<u32>,
+    /// The contact's grain i (grain–grain: its row; grain–wall: the grain).
+    grain: Vec<u32>,
+    /// Grain–wall: overlap, m.
+    wall_overlap: Vec<Real>,
+    /// Grain–wall: unit normal from the grain towards the wall.
+    wall_normal: Vec<Vec3>,
+    /// Force on grain i, N (its partner grain or the wall gets the negative).
+    force: Vec<Vec3>,
+    /// n × F_t, N (torque on a grain is its radius times it).
+    torque_arm: Vec<Vec3>,
+}
+
 /// The writable slices of one chunk [lo, hi).
 pub struct ChunkOut<'a> {
     pub lo: usize,
@@ -92,11 +111,52 @@ pub struct ChunkOut<'a> {
     pub spill: &'a mut Vec<Spill>,
     /// Force on each wall from this chunk, N.
     pub wall_force: &'a mut [Vec3],
+    pub scratch: &'a mut PairScratch,
 }
 
 /// Compute all forces on grains of the chunk (and partner shares).
-#[inline(never)]
+///
+/// Contacts are found first (histories of pairs not touching are cleared), then the contact
+/// laws run over them [`LANES`] at a time ([`Lanes`]: no branches, so the lanes share vector
+/// registers and independent contacts overlap instead of queueing on one chain of sqrt and
+/// division latencies), then each contact's force and torque go to its grains in list
+/// order. Grain–grain pairs first, then each wall, then gravity and the fluid force. The
+/// order is fixed, so a run is bitwise reproducible for a given thread count. On x86-64
+/// CPUs with AVX2 the same code is compiled for 4-wide registers and chosen at run time; it
+/// computes the same IEEE operations, so results do not depend on the CPU.
 pub fn chunk_forces<N: NormalLaw, T: TangentialLaw>(
+    laws: &Laws<N, T>,
+    set: &StepSettings<'_>,
+    g: GrainsIn<'_>,
+    start: &[u32],
+    partner: &[u32],
+    out: ChunkOut<'_>,
+) {
+    #[cfg(target_arch = "x86_64")]
+    if std::arch::is_x86_feature_detected!("avx2") {
+        // SAFETY: the CPU has AVX2 (checked just above).
+        unsafe { chunk_forces_avx2(laws, set, g, start, partner, out) };
+        return;
+    }
+    chunk_forces_body(laws, set, g, start, partner, out);
+}
+
+/// [`chunk_forces_body`] compiled for AVX2 (no FMA: the same roundings as the baseline).
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+unsafe fn chunk_forces_avx2<N: NormalLaw, T: TangentialLaw>(
+    laws: &Laws<N, T>,
+    set: &StepSettings<'_>,
+    g: GrainsIn<'_>,
+    start: &[u32],
+    partner: &[u32],
+    out: ChunkOut<'_>,
+) {
+    chunk_forces_body(laws, set, g, start, partner, out);
+}
+
+#[inline(always)]
+fn chunk_forces_body<N: NormalLaw, T: TangentialLaw>(
     laws: &Laws<N, T>,
     set: &StepSettings<'_>,
     g: GrainsIn<'_>,
@@ -107,7 +167,7 @@ pub fn chunk_forces<N: NormalLaw, T: TangentialLaw>(
     let lo = out.lo;
     let hi = lo + out.force.len();
     let hist_off = start[lo] as usize;
-    let nw = set.walls.len();
+    let sc = out.scratch;
     for f in out.force.iter_mut() {
         *f = [0.0; 3];
     }
@@ -116,124 +176,513 @@ pub fn chunk_forces<N: NormalLaw, T: TangentialLaw>(
             *t = [0.0; 3];
         }
     }
-    for w in out.wall_force.iter_mut() {
-        *w = [0.0; 3];
-    }
+
+    // Grain–grain: contacts of the chunk's rows.
+    sc.pair.clear();
+    sc.grain.clear();
     for i in lo..hi {
-        let xi = g.position[i];
-        let vi = g.velocity[i];
-        let ri = g.radius[i];
-        let mi = g.mass[i];
-        let wi = if set.rotation {
-            scale(g.angular_velocity[i], ri)
+        let (xi, ri) = (g.position[i], g.radius[i]);
+        for k in start[i] as usize..start[i + 1] as usize {
+            let j = partner[k] as usize;
+            let rs = ri + g.radius[j];
+            if norm2(sub(g.position[j], xi)) < rs * rs {
+                sc.pair.push(k as u32);
+                sc.grain.push(i as u32);
+            } else if T::USES_HISTORY {
+                out.history[k - hist_off] = [0.0; 3];
+            }
+        }
+    }
+    let nc = sc.pair.len();
+    sc.force.resize(nc, [0.0; 3]);
+    sc.torque_arm.resize(nc, [0.0; 3]);
+    for base in (0..nc).step_by(LANES) {
+        let slots = lane_slots(base, nc);
+        let k = slots.map(|c| sc.pair[c] as usize);
+        let i = slots.map(|c| sc.grain[c] as usize);
+        let j = k.map(|k| partner[k] as usize);
+        let slot = k.map(|k| k - hist_off);
+        let mut shear = if T::USES_HISTORY {
+            gather3(out.history, &slot)
+        } else {
+            [Lanes::splat(0.0); 3]
+        };
+        let (f, arm) = pair_lanes(laws, set, &g, i, j, &mut shear);
+        for l in 0..LANES.min(nc - base) {
+            sc.force[base + l] = lane(f, l);
+            sc.torque_arm[base + l] = lane(arm, l);
+            if T::USES_HISTORY {
+                out.history[slot[l]] = lane(shear, l);
+            }
+        }
+    }
+    for c in 0..nc {
+        let i = sc.grain[c] as usize;
+        let j = partner[sc.pair[c] as usize] as usize;
+        let f = sc.force[c];
+        add_assign(&mut out.force[i - lo], f);
+        let arm = sc.torque_arm[c];
+        if set.rotation {
+            add_assign(&mut out.torque[i - lo], scale(arm, g.radius[i]));
+        }
+        let tj = if set.rotation {
+            scale(arm, g.radius[j])
         } else {
             [0.0; 3]
         };
-        let mut fi = [0.0; 3];
-        let mut ti = [0.0; 3];
-        for k in start[i] as usize..start[i + 1] as usize {
-            let j = partner[k] as usize;
-            let d = sub(g.position[j], xi);
-            let rj = g.radius[j];
-            let rs = ri + rj;
-            let dist2 = norm2(d);
-            if dist2 >= rs * rs {
-                if T::USES_HISTORY {
-                    out.history[k - hist_off] = [0.0; 3];
-                }
-                continue;
-            }
-            let dist = dist2.sqrt();
-            let n = scale(d, 1.0 / dist);
-            let overlap = rs - dist;
-            let (sqrt_m_eff, r_eff) = match set.uniform {
-                Some(u) => (u.sqrt_m_eff, u.r_eff),
-                None => {
-                    let mj = g.mass[j];
-                    ((mi * mj / (mi + mj)).sqrt(), ri * rj / rs)
-                }
-            };
-            let mut vrel = sub(vi, g.velocity[j]);
+        if j < hi {
+            sub_assign(&mut out.force[j - lo], f);
             if set.rotation {
-                let wsum = [
-                    wi[0] + rj * g.angular_velocity[j][0],
-                    wi[1] + rj * g.angular_velocity[j][1],
-                    wi[2] + rj * g.angular_velocity[j][2],
-                ];
-                add_assign(&mut vrel, cross(wsum, n));
+                add_assign(&mut out.torque[j - lo], tj);
             }
-            let vn = dot(vrel, n);
-            let vt = sub(vrel, scale(n, vn));
-            let normal = laws.pp_normal.evaluate(sqrt_m_eff, r_eff, overlap, vn);
-            let ft =
-                laws.pp_tangential
-                    .force(&normal, vt, n, &mut out.history[k - hist_off], set.dt);
-            let f = sub(ft, scale(n, normal.force));
-            add_assign(&mut fi, f);
-            let (ti_add, tj_add) = if set.rotation {
-                let c = cross(n, ft);
-                (scale(c, ri), scale(c, rj))
-            } else {
-                ([0.0; 3], [0.0; 3])
-            };
-            if set.rotation {
-                add_assign(&mut ti, ti_add);
-            }
-            if j < hi {
-                sub_assign(&mut out.force[j - lo], f);
-                if set.rotation {
-                    add_assign(&mut out.torque[j - lo], tj_add);
-                }
-            } else {
-                out.spill.push(Spill {
-                    j: j as u32,
-                    force: scale(f, -1.0),
-                    torque: tj_add,
-                });
-            }
+        } else {
+            out.spill.push(Spill {
+                j: j as u32,
+                force: scale(f, -1.0),
+                torque: tj,
+            });
         }
-        // Walls: a partner of infinite mass and radius, at rest.
-        for (w, wall) in set.walls.iter().enumerate() {
-            let slot = (i - lo) * nw + w;
-            match wall.contact(xi, ri) {
+    }
+
+    // Walls, one at a time: a partner of infinite mass and radius, at rest.
+    let nw = set.walls.len();
+    for (w, wall) in set.walls.iter().enumerate() {
+        sc.grain.clear();
+        sc.wall_overlap.clear();
+        sc.wall_normal.clear();
+        for i in lo..hi {
+            match wall.contact(g.position[i], g.radius[i]) {
                 Some((overlap, n)) => {
-                    let mut vrel = vi;
-                    if set.rotation {
-                        add_assign(&mut vrel, cross(wi, n));
-                    }
-                    let vn = dot(vrel, n);
-                    let vt = sub(vrel, scale(n, vn));
-                    let sqrt_mi = match set.uniform {
-                        Some(u) => u.sqrt_m,
-                        None => mi.sqrt(),
-                    };
-                    let normal = laws.pw_normal.evaluate(sqrt_mi, ri, overlap, vn);
-                    let ft = laws.wall_tangential[w].force(
-                        &normal,
-                        vt,
-                        n,
-                        &mut out.wall_history[slot],
-                        set.dt,
-                    );
-                    let f = sub(ft, scale(n, normal.force));
-                    add_assign(&mut fi, f);
-                    sub_assign(&mut out.wall_force[w], f);
-                    if set.rotation {
-                        add_assign(&mut ti, scale(cross(n, ft), ri));
-                    }
+                    sc.grain.push(i as u32);
+                    sc.wall_overlap.push(overlap);
+                    sc.wall_normal.push(n);
                 }
                 None => {
                     if T::USES_HISTORY {
-                        out.wall_history[slot] = [0.0; 3];
+                        out.wall_history[(i - lo) * nw + w] = [0.0; 3];
                     }
                 }
             }
         }
-        add_assign(&mut fi, scale(set.gravity, mi));
-        add_assign(&mut fi, g.external_force[i]);
-        add_assign(&mut out.force[i - lo], fi);
-        if set.rotation {
-            add_assign(&mut out.torque[i - lo], ti);
+        let nc = sc.grain.len();
+        sc.force.resize(nc, [0.0; 3]);
+        sc.torque_arm.resize(nc, [0.0; 3]);
+        for base in (0..nc).step_by(LANES) {
+            let slots = lane_slots(base, nc);
+            let i = slots.map(|c| sc.grain[c] as usize);
+            let slot = i.map(|i| (i - lo) * nw + w);
+            let mut shear = if T::USES_HISTORY {
+                gather3(out.wall_history, &slot)
+            } else {
+                [Lanes::splat(0.0); 3]
+            };
+            let overlap = Lanes(slots.map(|c| sc.wall_overlap[c]));
+            let n = gather3(&sc.wall_normal, &slots);
+            let (f, arm) = wall_lanes(laws, w, set, &g, i, overlap, n, &mut shear);
+            for l in 0..LANES.min(nc - base) {
+                sc.force[base + l] = lane(f, l);
+                sc.torque_arm[base + l] = lane(arm, l);
+                if T::USES_HISTORY {
+                    out.wall_history[slot[l]] = lane(shear, l);
+                }
+            }
         }
+        let mut on_wall = [0.0; 3];
+        for c in 0..nc {
+            let i = sc.grain[c] as usize;
+            add_assign(&mut out.force[i - lo], sc.force[c]);
+            sub_assign(&mut on_wall, sc.force[c]);
+            if set.rotation {
+                add_assign(
+                    &mut out.torque[i - lo],
+                    scale(sc.torque_arm[c], g.radius[i]),
+                );
+            }
+        }
+        out.wall_force[w] = on_wall;
+    }
+
+    for i in lo..hi {
+        let fi = add(scale(set.gravity, g.mass[i]), g.external_force[i]);
+        add_assign(&mut out.force[i - lo], fi);
+    }
+}
+
+/// Scratch-list slots of the group starting at `base`: the last group repeats its first
+/// contact in the lanes past the end (computed, then dropped).
+#[inline(always)]
+fn lane_slots(base: usize, len: usize) -> [usize; LANES] {
+    std::array::from_fn(|l| if base + l < len { base + l } else { base })
+}
+
+/// Component c of `v[idx[l]]` in lane l.
+#[inline(always)]
+fn gather3(v: &[Vec3], idx: &[usize; LANES]) -> [Lanes; 3] {
+    std::array::from_fn(|c| Lanes(idx.map(|k| v[k][c])))
+}
+
+/// The vector in lane l.
+#[inline(always)]
+fn lane(v: [Lanes; 3], l: usize) -> Vec3 {
+    [v[0].0[l], v[1].0[l], v[2].0[l]]
+}
+
+/// The grain–grain laws on `LANES` contacts (i[l], j[l]) in contact; returns the force on
+/// each i and n × F_t, and updates the contacts' `shear` histories.
+#[inline(always)]
+fn pair_lanes<N: NormalLaw, T: TangentialLaw>(
+    laws: &Laws<N, T>,
+    set: &StepSettings<'_>,
+    g: &GrainsIn<'_>,
+    i: [usize; LANES],
+    j: [usize; LANES],
+    shear: &mut [Lanes; 3],
+) -> ([Lanes; 3], [Lanes; 3]) {
+    let d = sub(gather3(g.position, &j), gather3(g.position, &i));
+    let ri = Lanes(i.map(|i| g.radius[i]));
+    let rj = Lanes(j.map(|j| g.radius[j]));
+    let rs = ri + rj;
+    let dist = norm2(d).sqrt();
+    let n = scale(d, Lanes::splat(1.0) / dist);
+    let (sqrt_m_eff, r_eff) = match set.uniform {
+        Some(u) => (Lanes::splat(u.sqrt_m_eff), Lanes::splat(u.r_eff)),
+        None => {
+            let mi = Lanes(i.map(|i| g.mass[i]));
+            let mj = Lanes(j.map(|j| g.mass[j]));
+            ((mi * mj / (mi + mj)).sqrt(), ri * rj / rs)
+        }
+    };
+    let mut vrel = sub(gather3(g.velocity, &i), gather3(g.velocity, &j));
+    if set.rotation {
+        let (wi, wj) = (
+            gather3(g.angular_velocity, &i),
+            gather3(g.angular_velocity, &j),
+        );
+        let spin = std::array::from_fn(|c| ri * wi[c] + rj * wj[c]);
+        add_assign(&mut vrel, cross(spin, n));
+    }
+    respond(
+        &laws.pp_normal,
+        &laws.pp_tangential,
+        set.dt,
+        (sqrt_m_eff, r_eff),
+        rs - dist,
+        n,
+        vrel,
+        shear,
+    )
+}
+
+/// The grain–wall laws of wall `w` on `LANES` grains `i` touching it with `overlap` along
+/// `n`; returns the force on each grain and n × F_t, and updates their `shear` histories.
+#[allow(clippy::too_many_arguments)]
+#[inline(always)]
+fn wall_lanes<N: NormalLaw, T: TangentialLaw>(
+    laws: &Laws<N, T>,
+    w: usize,
+    set: &StepSettings<'_>,
+    g: &GrainsIn<'_>,
+    i: [usize; LANES],
+    overlap: Lanes,
+    n: [Lanes; 3],
+    shear: &mut [Lanes; 3],
+) -> ([Lanes; 3], [Lanes; 3]) {
+    let ri = Lanes(i.map(|i| g.radius[i]));
+    let sqrt_m = match set.uniform {
+        Some(u) => Lanes::splat(u.sqrt_m),
+        None => Lanes(i.map(|i| g.mass[i])).sqrt(),
+    };
+    let mut vrel = gather3(g.velocity, &i);
+    if set.rotation {
+        let wi = gather3(g.angular_velocity, &i);
+        let spin = std::array::from_fn(|c| ri * wi[c]);
+        add_assign(&mut vrel, cross(spin, n));
+    }
+    respond(
+        &laws.pw_normal,
+        &laws.wall_tangential[w],
+        set.dt,
+        (sqrt_m, ri),
+        overlap,
+        n,
+        vrel,
+        shear,
+    )
+}
+
+/// Normal and tangential law of one contact group: `vrel` the contact point's velocity of
+/// grain i relative to its partner, `n` from i to the partner; returns (force on i, n × F_t).
+#[allow(clippy::too_many_arguments)]
+#[inline(always)]
+fn respond<N: NormalLaw, T: TangentialLaw>(
+    normal_law: &N,
+    tangential_law: &T,
+    dt: Real,
+    (sqrt_m_eff, r_eff): (Lanes, Lanes),
+    overlap: Lanes,
+    n: [Lanes; 3],
+    vrel: [Lanes; 3],
+    shear: &mut [Lanes; 3],
+) -> ([Lanes; 3], [Lanes; 3]) {
+    let vn = dot(vrel, n);
+    let vt = sub(vrel, scale(n, vn));
+    let normal = normal_law.evaluate(sqrt_m_eff, r_eff, overlap, vn);
+    let ft = tangential_law.force(&normal, vt, n, shear, Lanes::splat(dt));
+    (sub(ft, scale(n, normal.force)), cross(n, ft))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::dem::contact::{Hertz, History};
+    use crate::dem::walls::WallShape;
+    use crate::rng::Rng;
+
+    /// 40 grains of two sizes jostled in a tube against a floor, moving and spinning, with
+    /// shear histories: many grain–grain and grain–wall contacts, some sliding.
+    struct Scene {
+        x: Vec<Vec3>,
+        v: Vec<Vec3>,
+        w: Vec<Vec3>,
+        r: Vec<Real>,
+        m: Vec<Real>,
+        fext: Vec<Vec3>,
+        start: Vec<u32>,
+        partner: Vec<u32>,
+        history: Vec<Vec3>,
+        wall_history: Vec<Vec3>,
+        walls: Vec<Wall>,
+        laws: Laws<Hertz, History>,
+    }
+
+    fn scene() -> Scene {
+        let mut rng = Rng::new(7);
+        let mut u = |a: Real| a * (2.0 * rng.uniform() - 1.0);
+        let n = 40;
+        let (mut x, mut v, mut w, mut r, mut m) = (vec![], vec![], vec![], vec![], vec![]);
+        for k in 0..n {
+            let rad = if k % 3 == 0 { 0.6e-3 } else { 0.5e-3 };
+            // A column of layers 0.95 mm apart, 4 grains per layer 0.95 mm apart: overlaps.
+            let (layer, slot) = ((k / 4) as Real, k % 4);
+            let (cx, cy) = [(-1.0, -1.0), (1.0, -1.0), (-1.0, 1.0), (1.0, 1.0)][slot];
+            x.push([
+                0.475e-3 * cx + u(5e-5),
+                0.475e-3 * cy + u(5e-5),
+                0.5e-3 + 0.95e-3 * layer + u(5e-5),
+            ]);
+            v.push([u(0.2), u(0.2), u(0.2)]);
+            w.push([u(300.0), u(300.0), u(300.0)]);
+            r.push(rad);
+            m.push(1000.0 * 4.0 / 3.0 * std::f64::consts::PI * rad * rad * rad);
+        }
+        let (mut start, mut partner) = (vec![0u32], vec![]);
+        for i in 0..n {
+            for j in i + 1..n {
+                if norm2(sub(x[j], x[i])) < (r[i] + r[j] + 2e-4).powi(2) {
+                    partner.push(j as u32);
+                }
+            }
+            start.push(partner.len() as u32);
+        }
+        let history = (0..partner.len())
+            .map(|_| [u(2e-6), u(2e-6), u(2e-6)])
+            .collect();
+        let walls = vec![
+            Wall {
+                name: "tube".into(),
+                shape: WallShape::Cylinder {
+                    point: [0.0; 3],
+                    axis: [0.0, 0.0, 1.0],
+                    radius: 1.15e-3,
+                },
+                friction: None,
+            },
+            Wall {
+                name: "floor".into(),
+                shape: WallShape::Plane {
+                    point: [0.0, 0.0, 0.1e-3],
+                    normal: [0.0, 0.0, 1.0],
+                },
+                friction: Some(0.1),
+            },
+        ];
+        let wall_history = (0..n * walls.len())
+            .map(|_| [u(2e-6), u(2e-6), u(2e-6)])
+            .collect();
+        let fext = (0..n).map(|_| [u(1e-4), u(1e-4), u(1e-4)]).collect();
+        let hertz = Hertz::new(5e6, 0.45, 0.5);
+        let mut laws = Laws {
+            pp_normal: hertz.clone(),
+            pp_tangential: History { mu: 0.5 },
+            pw_normal: hertz,
+            pw_tangential: History { mu: 0.3 },
+            wall_tangential: vec![],
+        };
+        laws.attach_walls(&walls);
+        Scene {
+            x,
+            v,
+            w,
+            r,
+            m,
+            fext,
+            start,
+            partner,
+            history,
+            wall_history,
+            walls,
+            laws,
+        }
+    }
+
+    /// Forces, torques, histories and wall forces of one chunk over all grains, through
+    /// `body` (the run-time dispatch, or one compiled variant).
+    type Outcome = (Vec<Vec3>, Vec<Vec3>, Vec<Vec3>, Vec<Vec3>, Vec<Vec3>);
+    type ForceBody =
+        fn(&Laws<Hertz, History>, &StepSettings<'_>, GrainsIn<'_>, &[u32], &[u32], ChunkOut<'_>);
+    fn run(s: &Scene, body: ForceBody) -> Outcome {
+        let n = s.x.len();
+        let (mut force, mut torque) = (vec![[0.0; 3]; n], vec![[0.0; 3]; n]);
+        let (mut history, mut wall_history) = (s.history.clone(), s.wall_history.clone());
+        let mut wall_force = vec![[0.0; 3]; s.walls.len()];
+        let (mut spill, mut scratch) = (vec![], PairScratch::default());
+        let set = StepSettings {
+            uniform: None,
+            walls: &s.walls,
+            gravity: [0.0, 0.0, -9.81],
+            dt: 1e-6,
+            rotation: true,
+        };
+        let g = GrainsIn {
+            position: &s.x,
+            velocity: &s.v,
+            angular_velocity: &s.w,
+            radius: &s.r,
+            mass: &s.m,
+            external_force: &s.fext,
+        };
+        let out = ChunkOut {
+            lo: 0,
+            force: &mut force,
+            torque: &mut torque,
+            history: &mut history,
+            wall_history: &mut wall_history,
+            spill: &mut spill,
+            wall_force: &mut wall_force,
+            scratch: &mut scratch,
+        };
+        body(&s.laws, &set, g, &s.start, &s.partner, out);
+        assert!(spill.is_empty(), "one chunk holds every partner");
+        (force, torque, history, wall_history, wall_force)
+    }
+
+    /// The same laws one contact at a time (`Num` = `Real`), summed in the same order.
+    fn one_contact_at_a_time(s: &Scene) -> Outcome {
+        let n = s.x.len();
+        let (mut force, mut torque) = (vec![[0.0; 3]; n], vec![[0.0; 3]; n]);
+        let (mut history, mut wall_history) = (s.history.clone(), s.wall_history.clone());
+        let mut wall_force = vec![[0.0; 3]; s.walls.len()];
+        let dt = 1e-6;
+        let respond1 = |normal_law: &Hertz,
+                        tangential: &History,
+                        sqrt_m: Real,
+                        r_eff: Real,
+                        overlap: Real,
+                        n: Vec3,
+                        vrel: Vec3,
+                        h: &mut Vec3| {
+            let vn = dot(vrel, n);
+            let vt = sub(vrel, scale(n, vn));
+            let normal = normal_law.evaluate(sqrt_m, r_eff, overlap, vn);
+            let ft = tangential.force(&normal, vt, n, h, dt);
+            (sub(ft, scale(n, normal.force)), cross(n, ft))
+        };
+        for i in 0..n {
+            for k in s.start[i] as usize..s.start[i + 1] as usize {
+                let j = s.partner[k] as usize;
+                let d = sub(s.x[j], s.x[i]);
+                let rs = s.r[i] + s.r[j];
+                if norm2(d) >= rs * rs {
+                    history[k] = [0.0; 3];
+                    continue;
+                }
+                let dist = norm2(d).sqrt();
+                let nrm = scale(d, 1.0 / dist);
+                let (mi, mj) = (s.m[i], s.m[j]);
+                let spin: Vec3 = std::array::from_fn(|c| s.r[i] * s.w[i][c] + s.r[j] * s.w[j][c]);
+                let vrel = add(sub(s.v[i], s.v[j]), cross(spin, nrm));
+                let (f, arm) = respond1(
+                    &s.laws.pp_normal,
+                    &s.laws.pp_tangential,
+                    (mi * mj / (mi + mj)).sqrt(),
+                    s.r[i] * s.r[j] / rs,
+                    rs - dist,
+                    nrm,
+                    vrel,
+                    &mut history[k],
+                );
+                add_assign(&mut force[i], f);
+                add_assign(&mut torque[i], scale(arm, s.r[i]));
+                sub_assign(&mut force[j], f);
+                add_assign(&mut torque[j], scale(arm, s.r[j]));
+            }
+        }
+        let nw = s.walls.len();
+        for (wi, wall) in s.walls.iter().enumerate() {
+            let mut on_wall = [0.0; 3];
+            for i in 0..n {
+                let Some((overlap, nrm)) = wall.contact(s.x[i], s.r[i]) else {
+                    wall_history[i * nw + wi] = [0.0; 3];
+                    continue;
+                };
+                let spin = scale(s.w[i], s.r[i]);
+                let vrel = add(s.v[i], cross(spin, nrm));
+                let (f, arm) = respond1(
+                    &s.laws.pw_normal,
+                    &s.laws.wall_tangential[wi],
+                    s.m[i].sqrt(),
+                    s.r[i],
+                    overlap,
+                    nrm,
+                    vrel,
+                    &mut wall_history[i * nw + wi],
+                );
+                add_assign(&mut force[i], f);
+                sub_assign(&mut on_wall, f);
+                add_assign(&mut torque[i], scale(arm, s.r[i]));
+            }
+            wall_force[wi] = on_wall;
+        }
+        for i in 0..n {
+            add_assign(
+                &mut force[i],
+                add(scale([0.0, 0.0, -9.81], s.m[i]), s.fext[i]),
+            );
+        }
+        (force, torque, history, wall_history, wall_force)
+    }
+
+    #[test]
+    fn lanes_give_bitwise_what_one_contact_at_a_time_gives() {
+        let s = scene();
+        let expected = one_contact_at_a_time(&s);
+        let contacts = expected.2.iter().filter(|h| **h != [0.0; 3]).count();
+        let on_walls = expected.3.iter().filter(|h| **h != [0.0; 3]).count();
+        // Enough contacts for full groups and a ragged last one, on both kinds.
+        assert!(
+            contacts > 2 * LANES && contacts % LANES != 0,
+            "{contacts} contacts"
+        );
+        assert!(on_walls > LANES, "{on_walls} wall contacts");
+        let bits = |o: &Outcome| -> Vec<u64> {
+            [&o.0, &o.1, &o.2, &o.3, &o.4]
+                .iter()
+                .flat_map(|v| v.iter().flatten().map(|x| x.to_bits()))
+                .collect()
+        };
+        let baseline = run(&s, chunk_forces_body);
+        assert_eq!(bits(&baseline), bits(&expected), "baseline lanes");
+        let dispatched = run(&s, chunk_forces);
+        assert_eq!(bits(&dispatched), bits(&expected), "run-time dispatch");
     }
 }

@@ -9,6 +9,7 @@ pub mod contact;
 pub mod external;
 pub mod forces;
 pub mod inlet;
+pub mod lanes;
 pub mod neighbor;
 pub mod placement;
 pub mod state;
@@ -25,7 +26,9 @@ use plugflow_coupling::{
 };
 
 use self::contact::{NormalLaw, TangentialLaw};
-use self::forces::{chunk_forces, ChunkOut, GrainsIn, Laws, Spill, StepSettings, UniformPair};
+use self::forces::{
+    chunk_forces, ChunkOut, GrainsIn, Laws, PairScratch, Spill, StepSettings, UniformPair,
+};
 use self::inlet::{draw_radius, leave_verdict, Feeder, Leave};
 use self::neighbor::{CellGrid, NeighborList};
 use self::placement::place;
@@ -79,6 +82,8 @@ pub struct NativeDem {
     wall_force: Vec<Vec3>,
     chunk_wall_force: Vec<Vec<Vec3>>,
     spills: Vec<Vec<Spill>>,
+    /// Per chunk: the contacts of the pair phase (scratch kept between steps).
+    pair_scratch: Vec<PairScratch>,
     timer: StageTimer,
     /// Pair constants while every grain has the scene's one size and density.
     uniform: Option<UniformPair>,
@@ -114,6 +119,7 @@ impl NativeDem {
             wall_force: vec![[0.0; 3]; nw],
             chunk_wall_force: vec![vec![[0.0; 3]; nw]; cfg.threads],
             spills: vec![Vec::new(); cfg.threads],
+            pair_scratch: vec![PairScratch::default(); cfg.threads],
             timer: StageTimer::new(),
             uniform: (cfg.radius_min == cfg.radius_max).then(|| {
                 let r = cfg.radius_min;
@@ -298,6 +304,7 @@ impl NativeDem {
             nlist,
             bounds,
             spills,
+            pair_scratch,
             chunk_wall_force,
             wall_force,
             velocity_pred,
@@ -312,6 +319,7 @@ impl NativeDem {
             nlist,
             bounds,
             spills,
+            pair_scratch,
             chunk_wall_force,
             wall_force,
             velocity_pred,
@@ -554,6 +562,7 @@ struct ForceJob<'a> {
     nlist: &'a mut NeighborList,
     bounds: &'a [usize],
     spills: &'a mut [Vec<Spill>],
+    pair_scratch: &'a mut [PairScratch],
     chunk_wall_force: &'a mut [Vec<Vec3>],
     wall_force: &'a mut [Vec3],
     velocity_pred: &'a [Vec3],
@@ -581,6 +590,7 @@ impl ForceJob<'_> {
         let wall_history = Shared::new(&mut s.wall_history);
         let history = Shared::new(&mut nl.history);
         let spills = Shared::new(self.spills);
+        let scratch = Shared::new(self.pair_scratch);
         let wall_acc = Shared::new(self.chunk_wall_force);
         let g = GrainsIn {
             position: &s.position,
@@ -597,7 +607,7 @@ impl ForceJob<'_> {
             let (lo, hi) = (bounds[c], bounds[c + 1]);
             let (hlo, hhi) = (start[lo] as usize, start[hi] as usize);
             // SAFETY: chunk c owns grains [lo, hi), their pair rows [start[lo], start[hi]),
-            // their wall histories, and slot c of the spill and wall-force lists; the chunks
+            // their wall histories, and slot c of the spill, scratch and wall-force lists; the chunks
             // are disjoint.
             let out = unsafe {
                 let spill = &mut spills.range(c, c + 1)[0];
@@ -610,6 +620,7 @@ impl ForceJob<'_> {
                     wall_history: wall_history.range(lo * nw, hi * nw),
                     spill,
                     wall_force: &mut wall_acc.range(c, c + 1)[0],
+                    scratch: &mut scratch.range(c, c + 1)[0],
                 }
             };
             chunk_forces(laws, &set, g, start, partner, out);

@@ -1,25 +1,27 @@
-//! Minimal 3-vector arithmetic on `[Real; 3]` (inlined; the contact loop lives on these).
+//! Minimal 3-vector arithmetic on `[T; 3]`, `T` one value or a group of lanes
+//! ([`super::lanes::Num`]); inlined, the contact loop lives on these.
 
-use crate::{Real, Vec3};
+use super::lanes::Num;
+use crate::Vec3;
 
 #[inline(always)]
-pub fn add(a: Vec3, b: Vec3) -> Vec3 {
+pub fn add<T: Num>(a: [T; 3], b: [T; 3]) -> [T; 3] {
     [a[0] + b[0], a[1] + b[1], a[2] + b[2]]
 }
 #[inline(always)]
-pub fn sub(a: Vec3, b: Vec3) -> Vec3 {
+pub fn sub<T: Num>(a: [T; 3], b: [T; 3]) -> [T; 3] {
     [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
 }
 #[inline(always)]
-pub fn scale(a: Vec3, s: Real) -> Vec3 {
+pub fn scale<T: Num>(a: [T; 3], s: T) -> [T; 3] {
     [a[0] * s, a[1] * s, a[2] * s]
 }
 #[inline(always)]
-pub fn dot(a: Vec3, b: Vec3) -> Real {
+pub fn dot<T: Num>(a: [T; 3], b: [T; 3]) -> T {
     a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 }
 #[inline(always)]
-pub fn cross(a: Vec3, b: Vec3) -> Vec3 {
+pub fn cross<T: Num>(a: [T; 3], b: [T; 3]) -> [T; 3] {
     [
         a[1] * b[2] - a[2] * b[1],
         a[2] * b[0] - a[0] * b[2],
@@ -27,24 +29,24 @@ pub fn cross(a: Vec3, b: Vec3) -> Vec3 {
     ]
 }
 #[inline(always)]
-pub fn norm2(a: Vec3) -> Real {
+pub fn norm2<T: Num>(a: [T; 3]) -> T {
     dot(a, a)
 }
 #[inline(always)]
-pub fn norm(a: Vec3) -> Real {
+pub fn norm<T: Num>(a: [T; 3]) -> T {
     dot(a, a).sqrt()
 }
 #[inline(always)]
-pub fn add_assign(a: &mut Vec3, b: Vec3) {
-    a[0] += b[0];
-    a[1] += b[1];
-    a[2] += b[2];
+pub fn add_assign<T: Num>(a: &mut [T; 3], b: [T; 3]) {
+    a[0] = a[0] + b[0];
+    a[1] = a[1] + b[1];
+    a[2] = a[2] + b[2];
 }
 #[inline(always)]
-pub fn sub_assign(a: &mut Vec3, b: Vec3) {
-    a[0] -= b[0];
-    a[1] -= b[1];
-    a[2] -= b[2];
+pub fn sub_assign<T: Num>(a: &mut [T; 3], b: [T; 3]) {
+    a[0] = a[0] - b[0];
+    a[1] = a[1] - b[1];
+    a[2] = a[2] - b[2];
 }
 /// `a / |a|`, or zero for the zero vector.
 pub fn normalized(a: Vec3) -> Vec3 {

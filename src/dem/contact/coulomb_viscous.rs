@@ -3,8 +3,9 @@
 //! always against the slip. It keeps no history.
 
 use super::{NormalOut, TangentialLaw};
+use crate::dem::lanes::Num;
 use crate::dem::vec3::{norm, scale};
-use crate::{Real, Vec3};
+use crate::Real;
 
 /// Parameters of the regularised Coulomb law.
 #[derive(Debug, Clone)]
@@ -23,13 +24,24 @@ impl TangentialLaw for CoulombViscous {
     }
 
     #[inline(always)]
-    fn force(&self, normal: &NormalOut, vt: Vec3, _n: Vec3, _h: &mut Vec3, _dt: Real) -> Vec3 {
+    fn force<T: Num>(
+        &self,
+        normal: &NormalOut<T>,
+        vt: [T; 3],
+        _n: [T; 3],
+        _h: &mut [T; 3],
+        _dt: T,
+    ) -> [T; 3] {
         let speed = norm(vt);
-        if speed == 0.0 {
-            return [0.0; 3];
-        }
-        let gamma = self.gamma_t.unwrap_or(normal.gamma_n);
-        let magnitude = (gamma * speed).min(self.mu * normal.force.max(0.0));
-        scale(vt, -magnitude / speed)
+        let gamma = match self.gamma_t {
+            Some(g) => T::splat(g),
+            None => normal.gamma_n,
+        };
+        let limit = T::splat(self.mu) * normal.force.max(T::splat(0.0));
+        let viscous = gamma * speed;
+        let magnitude = T::select(viscous.gt(limit), limit, viscous);
+        // A grain with no slip gets no force (and no 0/0).
+        let per_speed = T::select(speed.gt(T::splat(0.0)), magnitude / speed, T::splat(0.0));
+        scale(vt, -per_speed)
     }
 }

@@ -7,6 +7,7 @@
 //! sqrt(m k_t) as the normal one does on sqrt(m dF_n/dδ).
 
 use super::{NormalLaw, NormalOut};
+use crate::dem::lanes::Num;
 use crate::Real;
 
 /// Hertz law parameters for one kind of pair.
@@ -45,16 +46,16 @@ impl Hertz {
 
 impl NormalLaw for Hertz {
     #[inline(always)]
-    fn evaluate(&self, sqrt_m_eff: Real, r_eff: Real, overlap: Real, vn: Real) -> NormalOut {
+    fn evaluate<T: Num>(&self, sqrt_m_eff: T, r_eff: T, overlap: T, vn: T) -> NormalOut<T> {
         let sqrt_rd = (r_eff * overlap).sqrt();
         // F = 4/3 Y* sqrt(r* δ) δ;  dF/dδ = 2 Y* sqrt(r* δ);  k_t = 8 G* sqrt(r* δ).
         // α sqrt(m K_n) δ^{1/4} = α/sqrt(1.5) · sqrt(m dF/dδ) = gamma_n_coeff sqrt(m) (r* δ)^{1/4}.
-        let gamma_n = self.gamma_n_coeff * sqrt_m_eff * sqrt_rd.sqrt();
+        let gamma_n = T::splat(self.gamma_n_coeff) * sqrt_m_eff * sqrt_rd.sqrt();
         NormalOut {
-            force: (4.0 / 3.0) * self.y_star * sqrt_rd * overlap + gamma_n * vn,
-            kt: 8.0 * self.g_star * sqrt_rd,
+            force: T::splat((4.0 / 3.0) * self.y_star) * sqrt_rd * overlap + gamma_n * vn,
+            kt: T::splat(8.0 * self.g_star) * sqrt_rd,
             gamma_n,
-            gamma_t: gamma_n * self.gamma_t_ratio,
+            gamma_t: gamma_n * T::splat(self.gamma_t_ratio),
         }
     }
 

@@ -4,8 +4,9 @@
 //! k_t is the law's (Mindlin for Hertz, k_t/k_n ratio for Hooke).
 
 use super::{NormalOut, TangentialLaw};
+use crate::dem::lanes::Num;
 use crate::dem::vec3::{dot, norm2, scale, sub};
-use crate::{Real, Vec3};
+use crate::Real;
 
 /// Parameters of the history law.
 #[derive(Debug, Clone)]
@@ -22,42 +23,50 @@ impl TangentialLaw for History {
     }
 
     #[inline(always)]
-    fn force(&self, normal: &NormalOut, vt: Vec3, n: Vec3, h: &mut Vec3, dt: Real) -> Vec3 {
+    fn force<T: Num>(
+        &self,
+        normal: &NormalOut<T>,
+        vt: [T; 3],
+        n: [T; 3],
+        h: &mut [T; 3],
+        dt: T,
+    ) -> [T; 3] {
         // Keep the stored shear in the tangent plane as the contact rolls, without losing
-        // its magnitude. Removing the normal part h·n shrinks |h|² by (h·n)²; we restore the
-        // magnitude only when that exceeds 1e-12 |h|² (a static contact never pays the
-        // division and square root; skipping loses < 5e-13 of |h| per step).
+        // its magnitude. Removing the normal part h·n shrinks |h|² by (h·n)²; the magnitude
+        // is restored only when that exceeds 1e-12 |h|² (skipping loses < 5e-13 of |h| per
+        // step). Lanes choose by select, not branches; what no lane needs is skipped.
         let hn = dot(*h, n);
-        if hn != 0.0 {
-            let old2 = norm2(*h);
-            *h = sub(*h, scale(n, hn));
-            let hn2 = hn * hn;
-            if hn2 > 1e-12 * old2 && old2 > hn2 {
-                *h = scale(*h, (old2 / (old2 - hn2)).sqrt());
-            }
+        let old2 = norm2(*h);
+        let hn2 = hn * hn;
+        let restore = T::and(hn2.gt(T::splat(1e-12) * old2), old2.gt(hn2));
+        let mut in_plane = sub(*h, scale(n, hn));
+        if T::any(restore) {
+            let factor = T::select(restore, (old2 / (old2 - hn2)).sqrt(), T::splat(1.0));
+            in_plane = scale(in_plane, factor);
         }
-        h[0] += vt[0] * dt;
-        h[1] += vt[1] * dt;
-        h[2] += vt[2] * dt;
-        let mut ft = [
-            -normal.kt * h[0] - normal.gamma_t * vt[0],
-            -normal.kt * h[1] - normal.gamma_t * vt[1],
-            -normal.kt * h[2] - normal.gamma_t * vt[2],
-        ];
-        let limit = self.mu * normal.force.max(0.0);
+        let mut shear = [T::splat(0.0); 3];
+        for c in 0..3 {
+            shear[c] = in_plane[c] + vt[c] * dt;
+        }
+        let mut ft = [T::splat(0.0); 3];
+        for c in 0..3 {
+            ft[c] = -normal.kt * shear[c] - normal.gamma_t * vt[c];
+        }
+        // Coulomb: past μ F_n the force is cut back to the cone and the spring stretched
+        // only as far as that force needs.
+        let limit = T::splat(self.mu) * normal.force.max(T::splat(0.0));
         let f2 = norm2(ft);
-        if f2 > limit * limit {
-            let s = if f2 > 0.0 { limit / f2.sqrt() } else { 0.0 };
-            ft = scale(ft, s);
-            if normal.kt > 0.0 {
-                let inv = 1.0 / normal.kt;
-                *h = [
-                    -(ft[0] + normal.gamma_t * vt[0]) * inv,
-                    -(ft[1] + normal.gamma_t * vt[1]) * inv,
-                    -(ft[2] + normal.gamma_t * vt[2]) * inv,
-                ];
+        let slips = f2.gt(limit * limit);
+        if T::any(slips) {
+            let cut = T::select(slips, limit / f2.sqrt(), T::splat(1.0));
+            let reset = T::and(slips, normal.kt.gt(T::splat(0.0)));
+            let inv_kt = T::splat(1.0) / normal.kt;
+            for c in 0..3 {
+                ft[c] = ft[c] * cut;
+                shear[c] = T::select(reset, -(ft[c] + normal.gamma_t * vt[c]) * inv_kt, shear[c]);
             }
         }
+        *h = shear;
         ft
     }
 }

@@ -3,6 +3,7 @@
 //! which gives restitution e exactly and the contact time π / sqrt(k_n/m_eff − (γ_n/2m_eff)²).
 
 use super::{hooke_damping_ratio, NormalLaw, NormalOut};
+use crate::dem::lanes::Num;
 use crate::Real;
 
 /// Hooke law parameters for one kind of pair.
@@ -43,13 +44,13 @@ impl Hooke {
 
 impl NormalLaw for Hooke {
     #[inline(always)]
-    fn evaluate(&self, sqrt_m_eff: Real, _r_eff: Real, overlap: Real, vn: Real) -> NormalOut {
-        let gamma_n = self.gamma_n_per_sqrt_m * sqrt_m_eff;
+    fn evaluate<T: Num>(&self, sqrt_m_eff: T, _r_eff: T, overlap: T, vn: T) -> NormalOut<T> {
+        let gamma_n = T::splat(self.gamma_n_per_sqrt_m) * sqrt_m_eff;
         // Same damping ratio in the tangential direction.
-        let gamma_t = self.gamma_t_per_sqrt_m * sqrt_m_eff;
+        let gamma_t = T::splat(self.gamma_t_per_sqrt_m) * sqrt_m_eff;
         NormalOut {
-            force: self.kn * overlap + gamma_n * vn,
-            kt: self.kt,
+            force: T::splat(self.kn) * overlap + gamma_n * vn,
+            kt: T::splat(self.kt),
             gamma_n,
             gamma_t,
         }

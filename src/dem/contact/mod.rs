@@ -14,39 +14,50 @@ pub use hertz::Hertz;
 pub use history::History;
 pub use hooke::Hooke;
 
-use crate::{Real, Vec3};
+use crate::dem::lanes::Num;
+use crate::Real;
 
-/// What the normal law hands to the tangential law.
+/// What the normal law hands to the tangential law, for one contact (`T` = `Real`) or a
+/// group of lanes ([`Lanes`](crate::dem::lanes::Lanes)).
 #[derive(Debug, Clone, Copy)]
-pub struct NormalOut {
+pub struct NormalOut<T = Real> {
     /// Normal force magnitude, N, repulsive positive (elastic + viscous; may be negative at
     /// the end of a damped contact, as in LIGGGHTS' default).
-    pub force: Real,
+    pub force: T,
     /// Tangential spring stiffness for this overlap, N/m.
-    pub kt: Real,
+    pub kt: T,
     /// Normal damping coefficient for this overlap, kg/s.
-    pub gamma_n: Real,
+    pub gamma_n: T,
     /// Tangential damping coefficient, kg/s.
-    pub gamma_t: Real,
+    pub gamma_t: T,
 }
 
-/// A normal force law for one kind of pair (grain–grain or grain–wall).
+/// A normal force law for one kind of pair (grain–grain or grain–wall). Written over
+/// [`Num`] so one body serves a single contact and a group of lanes; it must not branch on
+/// values (use [`Num::select`]).
 pub trait NormalLaw: Clone + Send + Sync {
     /// Force for overlap δ (m) and approach speed `vn` (m/s) of a pair with effective mass
     /// `m_eff` (kg), its square root `sqrt_m_eff` (passed in so a monodisperse run computes
     /// it once), and effective radius `r_eff` (m).
-    fn evaluate(&self, sqrt_m_eff: Real, r_eff: Real, overlap: Real, vn: Real) -> NormalOut;
+    fn evaluate<T: Num>(&self, sqrt_m_eff: T, r_eff: T, overlap: T, vn: T) -> NormalOut<T>;
     /// Duration of a collision at impact speed `v` (Hertz depends on it, Hooke does not), s.
     fn contact_time(&self, m_eff: Real, r_eff: Real, v: Real) -> Real;
 }
 
-/// A tangential force law for one kind of pair.
+/// A tangential force law for one kind of pair; like [`NormalLaw`], branch-free over [`Num`].
 pub trait TangentialLaw: Clone + Send + Sync {
     /// True when the law keeps a per-contact shear displacement.
     const USES_HISTORY: bool;
     /// Tangential force on grain i for slip velocity `vt` (m/s, in the tangent plane),
     /// updating the contact's shear `history` (m) over `dt` (s).
-    fn force(&self, normal: &NormalOut, vt: Vec3, n: Vec3, history: &mut Vec3, dt: Real) -> Vec3;
+    fn force<T: Num>(
+        &self,
+        normal: &NormalOut<T>,
+        vt: [T; 3],
+        n: [T; 3],
+        history: &mut [T; 3],
+        dt: T,
+    ) -> [T; 3];
     /// The same law with friction coefficient `mu`.
     fn with_friction(&self, mu: Real) -> Self;
 }
