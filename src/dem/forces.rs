@@ -61,6 +61,8 @@ pub struct UniformPair {
     pub r_eff: Real,
     /// sqrt(m) of one grain (grain–wall pairs), kg^½.
     pub sqrt_m: Real,
+    /// Radius of every grain, m.
+    pub radius: Real,
 }
 
 /// Settings shared by all chunks of one step.
@@ -87,6 +89,8 @@ pub struct Spill {
 pub struct PairScratch {
     /// Grain–grain: the contact's pair index in the neighbour list (its history slot).
     pair: Vec<u32>,
+    /// Grain–grain: the partner j.
+    partner: Vec<u32>,
     /// The contact's grain i (grain–grain: its row; grain–wall: the grain).
     grain: Vec<u32>,
     /// Grain–wall: overlap, m.
@@ -114,7 +118,8 @@ pub struct ChunkOut<'a> {
     pub scratch: &'a mut PairScratch,
 }
 
-/// Compute all forces on grains of the chunk (and partner shares).
+/// Compute all forces on grains of the chunk (and partner shares). `near_wall`: per wall,
+/// the grains that may touch it (see [`NeighborList`](super::neighbor::NeighborList)).
 ///
 /// Contacts are found first (histories of pairs not touching are cleared), then the contact
 /// laws run over them [`LANES`] at a time ([`Lanes`]: no branches, so the lanes share vector
@@ -130,15 +135,16 @@ pub fn chunk_forces<N: NormalLaw, T: TangentialLaw>(
     g: GrainsIn<'_>,
     start: &[u32],
     partner: &[u32],
+    near_wall: &[Vec<u32>],
     out: ChunkOut<'_>,
 ) {
     #[cfg(target_arch = "x86_64")]
     if std::arch::is_x86_feature_detected!("avx2") {
         // SAFETY: the CPU has AVX2 (checked just above).
-        unsafe { chunk_forces_avx2(laws, set, g, start, partner, out) };
+        unsafe { chunk_forces_avx2(laws, set, g, start, partner, near_wall, out) };
         return;
     }
-    chunk_forces_body(laws, set, g, start, partner, out);
+    chunk_forces_body(laws, set, g, start, partner, near_wall, out);
 }
 
 /// [`chunk_forces_body`] compiled for AVX2 (no FMA: the same roundings as the baseline).
@@ -150,9 +156,10 @@ unsafe fn chunk_forces_avx2<N: NormalLaw, T: TangentialLaw>(
     g: GrainsIn<'_>,
     start: &[u32],
     partner: &[u32],
+    near_wall: &[Vec<u32>],
     out: ChunkOut<'_>,
 ) {
-    chunk_forces_body(laws, set, g, start, partner, out);
+    chunk_forces_body(laws, set, g, start, partner, near_wall, out);
 }
 
 #[inline(always)]
@@ -162,6 +169,7 @@ fn chunk_forces_body<N: NormalLaw, T: TangentialLaw>(
     g: GrainsIn<'_>,
     start: &[u32],
     partner: &[u32],
+    near_wall: &[Vec<u32>],
     out: ChunkOut<'_>,
 ) {
     let lo = out.lo;
@@ -179,6 +187,7 @@ fn chunk_forces_body<N: NormalLaw, T: TangentialLaw>(
 
     // Grain–grain: contacts of the chunk's rows.
     sc.pair.clear();
+    sc.partner.clear();
     sc.grain.clear();
     for i in lo..hi {
         let (xi, ri) = (g.position[i], g.radius[i]);
@@ -187,6 +196,7 @@ fn chunk_forces_body<N: NormalLaw, T: TangentialLaw>(
             let rs = ri + g.radius[j];
             if norm2(sub(g.position[j], xi)) < rs * rs {
                 sc.pair.push(k as u32);
+                sc.partner.push(j as u32);
                 sc.grain.push(i as u32);
             } else if T::USES_HISTORY {
                 out.history[k - hist_off] = [0.0; 3];
@@ -200,7 +210,7 @@ fn chunk_forces_body<N: NormalLaw, T: TangentialLaw>(
         let slots = lane_slots(base, nc);
         let k = slots.map(|c| sc.pair[c] as usize);
         let i = slots.map(|c| sc.grain[c] as usize);
-        let j = k.map(|k| partner[k] as usize);
+        let j = slots.map(|c| sc.partner[c] as usize);
         let slot = k.map(|k| k - hist_off);
         let mut shear = if T::USES_HISTORY {
             gather3(out.history, &slot)
@@ -218,7 +228,7 @@ fn chunk_forces_body<N: NormalLaw, T: TangentialLaw>(
     }
     for c in 0..nc {
         let i = sc.grain[c] as usize;
-        let j = partner[sc.pair[c] as usize] as usize;
+        let j = sc.partner[c] as usize;
         let f = sc.force[c];
         add_assign(&mut out.force[i - lo], f);
         let arm = sc.torque_arm[c];
@@ -250,7 +260,15 @@ fn chunk_forces_body<N: NormalLaw, T: TangentialLaw>(
         sc.grain.clear();
         sc.wall_overlap.clear();
         sc.wall_normal.clear();
-        for i in lo..hi {
+        // Grains [lo, hi) of the wall's near list; all others are more than half a skin
+        // away and their histories with it already zero.
+        let near = &near_wall[w];
+        let (a, b) = (
+            near.partition_point(|&i| (i as usize) < lo),
+            near.partition_point(|&i| (i as usize) < hi),
+        );
+        for &i in &near[a..b] {
+            let i = i as usize;
             match wall.contact(g.position[i], g.radius[i]) {
                 Some((overlap, n)) => {
                     sc.grain.push(i as u32);
@@ -339,8 +357,10 @@ fn pair_lanes<N: NormalLaw, T: TangentialLaw>(
     shear: &mut [Lanes; 3],
 ) -> ([Lanes; 3], [Lanes; 3]) {
     let d = sub(gather3(g.position, &j), gather3(g.position, &i));
-    let ri = Lanes(i.map(|i| g.radius[i]));
-    let rj = Lanes(j.map(|j| g.radius[j]));
+    let (ri, rj) = match set.uniform {
+        Some(u) => (Lanes::splat(u.radius), Lanes::splat(u.radius)),
+        None => (Lanes(i.map(|i| g.radius[i])), Lanes(j.map(|j| g.radius[j]))),
+    };
     let rs = ri + rj;
     let dist = norm2(d).sqrt();
     let n = scale(d, Lanes::splat(1.0) / dist);
@@ -538,8 +558,15 @@ mod tests {
     /// Forces, torques, histories and wall forces of one chunk over all grains, through
     /// `body` (the run-time dispatch, or one compiled variant).
     type Outcome = (Vec<Vec3>, Vec<Vec3>, Vec<Vec3>, Vec<Vec3>, Vec<Vec3>);
-    type ForceBody =
-        fn(&Laws<Hertz, History>, &StepSettings<'_>, GrainsIn<'_>, &[u32], &[u32], ChunkOut<'_>);
+    type ForceBody = fn(
+        &Laws<Hertz, History>,
+        &StepSettings<'_>,
+        GrainsIn<'_>,
+        &[u32],
+        &[u32],
+        &[Vec<u32>],
+        ChunkOut<'_>,
+    );
     fn run(s: &Scene, body: ForceBody) -> Outcome {
         let n = s.x.len();
         let (mut force, mut torque) = (vec![[0.0; 3]; n], vec![[0.0; 3]; n]);
@@ -571,7 +598,9 @@ mod tests {
             wall_force: &mut wall_force,
             scratch: &mut scratch,
         };
-        body(&s.laws, &set, g, &s.start, &s.partner, out);
+        // Every grain is near every wall: the near lists only skip grains that cannot touch.
+        let near = vec![(0..n as u32).collect::<Vec<_>>(); s.walls.len()];
+        body(&s.laws, &set, g, &s.start, &s.partner, &near, out);
         assert!(spill.is_empty(), "one chunk holds every partner");
         (force, torque, history, wall_history, wall_force)
     }

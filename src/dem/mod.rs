@@ -128,6 +128,7 @@ impl NativeDem {
                     sqrt_m_eff: (0.5 * m).sqrt(),
                     r_eff: 0.5 * r,
                     sqrt_m: m.sqrt(),
+                    radius: r,
                 }
             }),
             threads: TeamThreads::start(cfg.threads),
@@ -208,9 +209,13 @@ impl NativeDem {
 
     fn rebuild(&mut self) {
         let keep = self.cfg.laws.uses_history();
-        let nw = self.cfg.walls.len();
-        self.nlist
-            .rebuild(&mut self.state, &self.grid, self.cfg.skin, nw, keep);
+        self.nlist.rebuild(
+            &mut self.state,
+            &self.grid,
+            self.cfg.skin,
+            &self.cfg.walls,
+            keep,
+        );
         self.rebuild_pending = false;
         // Contiguous ranges with about equal pair + grain counts per thread.
         let n = self.state.len();
@@ -600,7 +605,7 @@ impl ForceJob<'_> {
             mass: &s.mass,
             external_force: &s.external_force,
         };
-        let (start, partner) = (&nl.start, &nl.partner);
+        let (start, partner, near_wall) = (&nl.start, &nl.partner, &nl.near_wall);
         let bounds = self.bounds;
         let active = bounds.len() - 1;
         team.run(active, &|c| {
@@ -623,7 +628,7 @@ impl ForceJob<'_> {
                     scratch: &mut scratch.range(c, c + 1)[0],
                 }
             };
-            chunk_forces(laws, &set, g, start, partner, out);
+            chunk_forces(laws, &set, g, start, partner, near_wall, out);
         });
         // Partner shares across chunk boundaries and wall forces, in chunk order.
         for spill in self.spills[..active].iter() {

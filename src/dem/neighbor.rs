@@ -8,6 +8,7 @@
 
 use super::state::ParticleState;
 use super::vec3::{norm2, sub};
+use super::walls::Wall;
 use crate::{Real, Vec3};
 
 /// Uniform grid of cells over the simulation box.
@@ -78,6 +79,10 @@ pub struct NeighborList {
     pub partner: Vec<u32>,
     /// Tangential shear displacement of each pair as seen from i, m.
     pub history: Vec<Vec3>,
+    /// Per wall, ascending: the grains within one skin of it at the build. No other grain
+    /// can reach the wall before the next build (that comes once a grain has moved half the
+    /// skin), so the force loop asks only these about that wall.
+    pub near_wall: Vec<Vec<u32>>,
     /// Positions at the last build, m.
     x_at_build: Vec<Vec3>,
     /// Scratch: per-cell start offsets.
@@ -109,7 +114,7 @@ impl NeighborList {
         state: &mut ParticleState,
         grid: &CellGrid,
         skin: Real,
-        walls: usize,
+        walls: &[Wall],
         keep_history: bool,
     ) {
         let n = state.len();
@@ -137,7 +142,7 @@ impl NeighborList {
             order[fill[c] as usize] = i;
             fill[c] += 1;
         }
-        state.permute(&order, walls);
+        state.permute(&order, walls.len());
         // 3. Pairs within reach, from the 27 surrounding cells.
         self.start.clear();
         self.partner.clear();
@@ -174,7 +179,17 @@ impl NeighborList {
             }
             self.start.push(self.partner.len() as u32);
         }
-        // 4. Restore histories.
+        // 4. Grains near each wall: closer than one skin (the wall's contact test with the
+        // radius grown by the skin).
+        self.near_wall.resize(walls.len(), Vec::new());
+        for (near, wall) in self.near_wall.iter_mut().zip(walls) {
+            near.clear();
+            near.extend((0..n).filter_map(|i| {
+                let grown = state.radius[i] + skin;
+                wall.contact(state.position[i], grown).map(|_| i as u32)
+            }));
+        }
+        // 5. Restore histories.
         self.history.clear();
         if keep_history {
             self.history.resize(self.partner.len(), [0.0; 3]);
