@@ -97,10 +97,6 @@ pub struct PairScratch {
     wall_overlap: Vec<Real>,
     /// Grain–wall: unit normal from the grain towards the wall.
     wall_normal: Vec<Vec3>,
-    /// Force on grain i, N (its partner grain or the wall gets the negative).
-    force: Vec<Vec3>,
-    /// n × F_t, N (torque on a grain is its radius times it).
-    torque_arm: Vec<Vec3>,
 }
 
 /// The writable slices of one chunk [lo, hi).
@@ -204,8 +200,6 @@ fn chunk_forces_body<N: NormalLaw, T: TangentialLaw>(
         }
     }
     let nc = sc.pair.len();
-    sc.force.resize(nc, [0.0; 3]);
-    sc.torque_arm.resize(nc, [0.0; 3]);
     for base in (0..nc).step_by(LANES) {
         let slots = lane_slots(base, nc);
         let k = slots.map(|c| sc.pair[c] as usize);
@@ -218,39 +212,32 @@ fn chunk_forces_body<N: NormalLaw, T: TangentialLaw>(
             [Lanes::splat(0.0); 3]
         };
         let (f, arm) = pair_lanes(laws, set, &g, i, j, &mut shear);
+        // Each contact's force and torque to its two grains, in list order.
         for l in 0..LANES.min(nc - base) {
-            sc.force[base + l] = lane(f, l);
-            sc.torque_arm[base + l] = lane(arm, l);
             if T::USES_HISTORY {
                 out.history[slot[l]] = lane(shear, l);
             }
-        }
-    }
-    for c in 0..nc {
-        let i = sc.grain[c] as usize;
-        let j = sc.partner[c] as usize;
-        let f = sc.force[c];
-        add_assign(&mut out.force[i - lo], f);
-        let arm = sc.torque_arm[c];
-        if set.rotation {
-            add_assign(&mut out.torque[i - lo], scale(arm, g.radius[i]));
-        }
-        let tj = if set.rotation {
-            scale(arm, g.radius[j])
-        } else {
-            [0.0; 3]
-        };
-        if j < hi {
-            sub_assign(&mut out.force[j - lo], f);
-            if set.rotation {
-                add_assign(&mut out.torque[j - lo], tj);
+            let (i, j, f) = (i[l], j[l], lane(f, l));
+            add_assign(&mut out.force[i - lo], f);
+            let tj = if set.rotation {
+                let arm = lane(arm, l);
+                add_assign(&mut out.torque[i - lo], scale(arm, g.radius[i]));
+                scale(arm, g.radius[j])
+            } else {
+                [0.0; 3]
+            };
+            if j < hi {
+                sub_assign(&mut out.force[j - lo], f);
+                if set.rotation {
+                    add_assign(&mut out.torque[j - lo], tj);
+                }
+            } else {
+                out.spill.push(Spill {
+                    j: j as u32,
+                    force: scale(f, -1.0),
+                    torque: tj,
+                });
             }
-        } else {
-            out.spill.push(Spill {
-                j: j as u32,
-                force: scale(f, -1.0),
-                torque: tj,
-            });
         }
     }
 
@@ -283,8 +270,7 @@ fn chunk_forces_body<N: NormalLaw, T: TangentialLaw>(
             }
         }
         let nc = sc.grain.len();
-        sc.force.resize(nc, [0.0; 3]);
-        sc.torque_arm.resize(nc, [0.0; 3]);
+        let mut on_wall = [0.0; 3];
         for base in (0..nc).step_by(LANES) {
             let slots = lane_slots(base, nc);
             let i = slots.map(|c| sc.grain[c] as usize);
@@ -298,23 +284,15 @@ fn chunk_forces_body<N: NormalLaw, T: TangentialLaw>(
             let n = gather3(&sc.wall_normal, &slots);
             let (f, arm) = wall_lanes(laws, w, set, &g, i, overlap, n, &mut shear);
             for l in 0..LANES.min(nc - base) {
-                sc.force[base + l] = lane(f, l);
-                sc.torque_arm[base + l] = lane(arm, l);
                 if T::USES_HISTORY {
                     out.wall_history[slot[l]] = lane(shear, l);
                 }
-            }
-        }
-        let mut on_wall = [0.0; 3];
-        for c in 0..nc {
-            let i = sc.grain[c] as usize;
-            add_assign(&mut out.force[i - lo], sc.force[c]);
-            sub_assign(&mut on_wall, sc.force[c]);
-            if set.rotation {
-                add_assign(
-                    &mut out.torque[i - lo],
-                    scale(sc.torque_arm[c], g.radius[i]),
-                );
+                let (i, f) = (i[l], lane(f, l));
+                add_assign(&mut out.force[i - lo], f);
+                sub_assign(&mut on_wall, f);
+                if set.rotation {
+                    add_assign(&mut out.torque[i - lo], scale(lane(arm, l), g.radius[i]));
+                }
             }
         }
         out.wall_force[w] = on_wall;
