@@ -27,7 +27,7 @@ use plugflow_coupling::{
 
 use self::contact::{NormalLaw, TangentialLaw};
 use self::forces::{
-    chunk_forces, ChunkOut, GrainsIn, Laws, PairScratch, Spill, StepSettings, UniformPair,
+    chunk_forces, ChunkOut, ContactScratch, GrainsIn, Laws, Spill, StepSettings, UniformPair,
 };
 use self::inlet::{draw_radius, leave_verdict, Feeder, Leave};
 use self::neighbor::{CellGrid, NeighborList};
@@ -83,7 +83,7 @@ pub struct NativeDem {
     chunk_wall_force: Vec<Vec<Vec3>>,
     spills: Vec<Vec<Spill>>,
     /// Per chunk: the contacts of the pair phase (scratch kept between steps).
-    pair_scratch: Vec<PairScratch>,
+    contact_scratch: Vec<ContactScratch>,
     timer: StageTimer,
     /// Pair constants while every grain has the scene's one size and density.
     uniform: Option<UniformPair>,
@@ -119,7 +119,7 @@ impl NativeDem {
             wall_force: vec![[0.0; 3]; nw],
             chunk_wall_force: vec![vec![[0.0; 3]; nw]; cfg.threads],
             spills: vec![Vec::new(); cfg.threads],
-            pair_scratch: vec![PairScratch::default(); cfg.threads],
+            contact_scratch: vec![ContactScratch::default(); cfg.threads],
             timer: StageTimer::new(),
             uniform: (cfg.radius_min == cfg.radius_max).then(|| {
                 let r = cfg.radius_min;
@@ -309,7 +309,7 @@ impl NativeDem {
             nlist,
             bounds,
             spills,
-            pair_scratch,
+            contact_scratch,
             chunk_wall_force,
             wall_force,
             velocity_pred,
@@ -324,7 +324,7 @@ impl NativeDem {
             nlist,
             bounds,
             spills,
-            pair_scratch,
+            contact_scratch,
             chunk_wall_force,
             wall_force,
             velocity_pred,
@@ -567,7 +567,7 @@ struct ForceJob<'a> {
     nlist: &'a mut NeighborList,
     bounds: &'a [usize],
     spills: &'a mut [Vec<Spill>],
-    pair_scratch: &'a mut [PairScratch],
+    contact_scratch: &'a mut [ContactScratch],
     chunk_wall_force: &'a mut [Vec<Vec3>],
     wall_force: &'a mut [Vec3],
     velocity_pred: &'a [Vec3],
@@ -595,7 +595,7 @@ impl ForceJob<'_> {
         let wall_history = Shared::new(&mut s.wall_history);
         let history = Shared::new(&mut nl.history);
         let spills = Shared::new(self.spills);
-        let scratch = Shared::new(self.pair_scratch);
+        let scratch = Shared::new(self.contact_scratch);
         let wall_acc = Shared::new(self.chunk_wall_force);
         let g = GrainsIn {
             position: &s.position,
