@@ -38,6 +38,12 @@ fn binary_collision(contact: &str, v: f64) -> (f64, f64, f64) {
 
 /// Grain hitting a plane wall head-on; returns (restitution, contact duration, dt).
 fn wall_collision(contact: &str, v: f64) -> (f64, f64, f64) {
+    // First touch 5.37 steps in (see `binary_collision` on step-aligned touches).
+    wall_collision_from(contact, v, |dt| v * dt * 5.37)
+}
+
+/// [`wall_collision`] from a gap of `gap(dt)` metres.
+fn wall_collision_from(contact: &str, v: f64, gap: impl Fn(f64) -> f64) -> (f64, f64, f64) {
     let walls = r#"
 [dem]
 rotation = false
@@ -48,8 +54,7 @@ normal = [0, 0, 1]"#;
     let mut dem = engine(&box_scene("[0, 0, 0]", contact, walls));
     let r = 0.7e-3;
     let dt = dem.time_step();
-    // First touch 5.37 steps in (see `binary_collision` on step-aligned touches).
-    dem.insert(&[grain([0.0, 0.0, r + v * dt * 5.37], [0.0, 0.0, -v])])
+    dem.insert(&[grain([0.0, 0.0, r + gap(dt)], [0.0, 0.0, -v])])
         .unwrap();
     let (mut n, mut touched) = (0u64, false);
     for _ in 0..200_000 {
@@ -76,6 +81,22 @@ fn hooke_restitution_and_contact_time_grain_grain_and_wall() {
     assert!((e - 0.5).abs() < 0.005, "grain-grain e = {e}");
     assert!((tc - 1e-4).abs() <= 2.0 * dt, "grain-grain t_c = {tc}");
     let (e, tc, dt) = wall_collision(HOOKE, 0.5);
+    assert!((e - 0.5).abs() < 0.005, "grain-wall e = {e}");
+    let expect = 1e-4 * 2f64.sqrt();
+    assert!(
+        (tc - expect).abs() <= 2.0 * dt,
+        "grain-wall t_c = {tc} vs {expect}"
+    );
+}
+
+#[test]
+fn a_grain_from_many_skins_away_still_meets_the_wall() {
+    // A wall is asked only about grains within one skin of it at the last neighbour build
+    // (NeighborList::near_wall); a grain launched from 5 mm away (many skins, 25 000 steps)
+    // must be picked up on the way by a rebuild and bounce with the set restitution and
+    // contact time, within the near-start test's tolerances (1 %, ± 2 dt). The gap is
+    // 5 mm plus 0.37 of a step's travel, to keep the touch off a step boundary.
+    let (e, tc, dt) = wall_collision_from(HOOKE, 0.1, |dt| 5e-3 + 0.1 * dt * 0.37);
     assert!((e - 0.5).abs() < 0.005, "grain-wall e = {e}");
     let expect = 1e-4 * 2f64.sqrt();
     assert!(
