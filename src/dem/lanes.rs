@@ -31,8 +31,6 @@ pub trait Num:
     fn max(self, other: Self) -> Self;
     /// Lane-wise `self > other`.
     fn gt(self, other: Self) -> Self::Mask;
-    /// Lane-wise `self != other`.
-    fn ne(self, other: Self) -> Self::Mask;
     /// Lane-wise `a && b`.
     fn and(a: Self::Mask, b: Self::Mask) -> Self::Mask;
     /// True when the mask holds in some lane: lets a law skip work no lane needs (one
@@ -64,10 +62,6 @@ impl Num for Real {
     #[inline(always)]
     fn gt(self, other: Self) -> bool {
         self > other
-    }
-    #[inline(always)]
-    fn ne(self, other: Self) -> bool {
-        self != other
     }
     #[inline(always)]
     fn and(a: bool, b: bool) -> bool {
@@ -149,14 +143,6 @@ impl Num for Lanes {
         m
     }
     #[inline(always)]
-    fn ne(self, other: Self) -> Self::Mask {
-        let mut m = [false; LANES];
-        for l in 0..LANES {
-            m[l] = self.0[l] != other.0[l];
-        }
-        m
-    }
-    #[inline(always)]
     fn and(a: Self::Mask, b: Self::Mask) -> Self::Mask {
         let mut m = [false; LANES];
         for l in 0..LANES {
@@ -193,7 +179,7 @@ mod tests {
             assert_eq!(q.0[l].to_bits(), s.to_bits(), "lane {l}");
         }
         let over_half = a.gt(Lanes::splat(0.5));
-        let pick = Lanes::select(Lanes::and(over_half, a.ne(Lanes::splat(9.0))), a, b);
+        let pick = Lanes::select(Lanes::and(over_half, Lanes::splat(9.0).gt(a)), a, b);
         assert_eq!(pick.0, [1.0, 0.5, 0.0, -1.0]);
         assert!(Lanes::any(a.gt(b)) && !Lanes::any(a.gt(Lanes::splat(10.0))));
     }
