@@ -15,7 +15,9 @@ type Job<'a> = &'a (dyn Fn(usize) + Sync);
 pub struct Team {
     members: usize,
     epoch: AtomicUsize,
-    remaining: AtomicUsize,
+    /// Written by the workers as they finish: on its own cache line, away from what they
+    /// poll, so a finishing worker does not steal the line the others spin on.
+    remaining: Padded<AtomicUsize>,
     /// Members taking part in the current job (the rest sit it out).
     active: AtomicUsize,
     job: AtomicPtr<()>,
@@ -29,7 +31,7 @@ impl Team {
         Self {
             members: members.max(1),
             epoch: AtomicUsize::new(0),
-            remaining: AtomicUsize::new(0),
+            remaining: Padded(AtomicUsize::new(0)),
             active: AtomicUsize::new(0),
             job: AtomicPtr::new(std::ptr::null_mut()),
             stop: AtomicBool::new(false),
@@ -120,6 +122,17 @@ fn spin(spins: &mut u32) {
         std::thread::yield_now();
     } else {
         std::thread::sleep(std::time::Duration::from_micros(100));
+    }
+}
+
+/// A value alone on its cache line (128 bytes: adjacent-line prefetch pairs lines).
+#[repr(align(128))]
+struct Padded<T>(T);
+
+impl<T> std::ops::Deref for Padded<T> {
+    type Target = T;
+    fn deref(&self) -> &T {
+        &self.0
     }
 }
 
