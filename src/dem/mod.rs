@@ -9,6 +9,7 @@ pub mod contact;
 pub mod external;
 pub mod forces;
 pub mod inlet;
+pub mod integrate;
 pub mod lanes;
 pub mod neighbor;
 pub mod placement;
@@ -30,6 +31,7 @@ use self::forces::{
     chunk_forces, ChunkOut, ContactScratch, GrainsIn, Laws, Spill, StepSettings, UniformPair,
 };
 use self::inlet::{draw_radius, leave_verdict, Feeder, Leave};
+use self::integrate::{integrate_chunk, ChunkColumns, ChunkVerdict, PassKind, BLOWUP_SPEED};
 use self::neighbor::{CellGrid, NeighborList};
 use self::placement::place;
 use self::state::ParticleState;
@@ -37,10 +39,6 @@ use self::team::{Shared, Team, TeamThreads};
 use self::vec3::{dot, is_finite, norm2, sub};
 use crate::rng::Rng;
 use crate::{Real, Vec3};
-
-/// Speed beyond which a grain is taken to have blown up, m/s: no conveyed grain moves at
-/// 10 km/s, and a diverging integration passes it long before reaching infinity or NaN.
-const BLOWUP_SPEED: Real = 1.0e4;
 
 /// Fewest grains per thread worth a chunk of its own (below, sync costs more than it saves).
 const MIN_GRAINS_PER_CHUNK: usize = 256;
@@ -91,9 +89,8 @@ pub struct NativeDem {
     threads: TeamThreads,
     /// Chunk boundaries (active chunks + 1 entries), fixed between neighbour builds.
     bounds: Vec<usize>,
-    /// Per chunk: (all speeds finite and below the blow-up speed, largest squared
-    /// displacement since the last neighbour build).
-    chunk_result: Vec<(bool, Real)>,
+    /// Per chunk: the verdict of the last integration pass.
+    chunk_result: Vec<ChunkVerdict>,
     /// Scratch: velocities predicted to t + dt for the velocity-dependent forces.
     velocity_pred: Vec<Vec3>,
     /// Scratch: angular velocities predicted to t + dt.
@@ -133,7 +130,13 @@ impl NativeDem {
             }),
             threads: TeamThreads::start(cfg.threads),
             bounds: Vec::new(),
-            chunk_result: vec![(true, 0.0); cfg.threads],
+            chunk_result: vec![
+                ChunkVerdict {
+                    sane: true,
+                    moved_far: false
+                };
+                cfg.threads
+            ],
             velocity_pred: Vec::new(),
             angular_velocity_pred: Vec::new(),
             cfg,
@@ -366,15 +369,23 @@ impl NativeDem {
         }
     }
 
-    /// One integration phase over all chunks; returns (all speeds sane, largest squared
-    /// displacement since the last neighbour build).
-    fn integrate(&mut self, team: &Team, phase: Phase) -> (bool, Real) {
-        let dt = self.cfg.dt;
-        let rotation = self.cfg.rotation;
+    /// One integration phase over all chunks: all speeds sane, and whether some grain moved
+    /// more than half the skin since the last neighbour build.
+    fn integrate(&mut self, team: &Team, phase: Phase) -> ChunkVerdict {
+        let (finish, start) = phase.parts();
+        let kind = PassKind {
+            dt: self.cfg.dt,
+            finish,
+            start,
+            rotation: self.cfg.rotation,
+            rebuild_distance2: 0.25 * self.cfg.skin * self.cfg.skin,
+        };
         let s = &mut self.state;
         let x_ref = self.nlist.reference_positions();
         let track = x_ref.len() == s.len();
         let cols = IntegrateColumns {
+            force: Shared::new(&mut s.force),
+            torque: Shared::new(&mut s.torque),
             velocity: Shared::new(&mut s.velocity),
             position: Shared::new(&mut s.position),
             angular_velocity: Shared::new(&mut s.angular_velocity),
@@ -382,71 +393,63 @@ impl NativeDem {
             angular_velocity_pred: Shared::new(&mut self.angular_velocity_pred),
             result: Shared::new(&mut self.chunk_result),
         };
-        let (force, torque) = (&s.force, &s.torque);
         let (inv_mass, inv_inertia) = (&s.inv_mass, &s.inv_inertia);
         let bounds = &self.bounds;
+        let spills = &self.spills;
         team.run(bounds.len() - 1, &|c| {
             let (lo, hi) = (bounds[c], bounds[c + 1]);
             // SAFETY: the chunks [bounds[c], bounds[c+1]) are disjoint, and so is slot c.
-            let (v, x, w, vp, wp, res) = unsafe {
+            let (force, torque, result) = unsafe {
                 (
-                    cols.velocity.range(lo, hi),
-                    cols.position.range(lo, hi),
-                    cols.angular_velocity.range(lo, hi),
-                    cols.velocity_pred.range(lo, hi),
-                    cols.angular_velocity_pred.range(lo, hi),
+                    cols.force.range(lo, hi),
+                    cols.torque.range(lo, hi),
                     &mut cols.result.range(c, c + 1)[0],
                 )
             };
-            let h = 0.5 * dt;
-            let (finish, start) = phase.parts();
-            let mut ok = true;
-            let mut disp2: Real = 0.0;
-            for k in 0..hi - lo {
-                let i = lo + k;
-                let a = inv_mass[i] * h;
-                let f = force[i];
-                let mut vi = v[k];
-                if finish {
-                    vi = [vi[0] + f[0] * a, vi[1] + f[1] * a, vi[2] + f[2] * a];
-                    // NaN compares false, so this also catches NaN and infinity.
-                    ok &= norm2(vi) < BLOWUP_SPEED * BLOWUP_SPEED;
-                }
-                if start {
-                    vi = [vi[0] + f[0] * a, vi[1] + f[1] * a, vi[2] + f[2] * a];
-                    let xi = &mut x[k];
-                    xi[0] += vi[0] * dt;
-                    xi[1] += vi[1] * dt;
-                    xi[2] += vi[2] * dt;
-                    vp[k] = [vi[0] + f[0] * a, vi[1] + f[1] * a, vi[2] + f[2] * a];
-                    if track {
-                        disp2 = disp2.max(norm2(sub(*xi, x_ref[i])));
+            // Shares of this chunk's grains from pairs of earlier chunks, in chunk order
+            // and list order (so the sums do not depend on which thread finished first).
+            for spill in &spills[..c] {
+                for sp in spill {
+                    let j = sp.j as usize;
+                    if (lo..hi).contains(&j) {
+                        vec3::add_assign(&mut force[j - lo], sp.force);
+                        if kind.rotation {
+                            vec3::add_assign(&mut torque[j - lo], sp.torque);
+                        }
                     }
-                }
-                v[k] = vi;
-            }
-            if rotation {
-                for k in 0..hi - lo {
-                    let i = lo + k;
-                    let b = inv_inertia[i] * h;
-                    let t = torque[i];
-                    let mut wi = w[k];
-                    if finish {
-                        wi = [wi[0] + t[0] * b, wi[1] + t[1] * b, wi[2] + t[2] * b];
-                        ok &= norm2(wi).is_finite();
-                    }
-                    if start {
-                        wi = [wi[0] + t[0] * b, wi[1] + t[1] * b, wi[2] + t[2] * b];
-                        wp[k] = [wi[0] + t[0] * b, wi[1] + t[1] * b, wi[2] + t[2] * b];
-                    }
-                    w[k] = wi;
                 }
             }
-            *res = (ok, disp2);
+            // SAFETY: as above.
+            let chunk = unsafe {
+                ChunkColumns {
+                    force,
+                    torque,
+                    inv_mass: &inv_mass[lo..hi],
+                    inv_inertia: &inv_inertia[lo..hi],
+                    velocity: cols.velocity.range(lo, hi),
+                    position: cols.position.range(lo, hi),
+                    angular_velocity: cols.angular_velocity.range(lo, hi),
+                    velocity_pred: cols.velocity_pred.range(lo, hi),
+                    angular_velocity_pred: cols.angular_velocity_pred.range(lo, hi),
+                    reference: track.then(|| &x_ref[lo..hi]),
+                }
+            };
+            *result = integrate_chunk(chunk, kind);
         });
-        self.chunk_result[..self.bounds.len() - 1]
-            .iter()
-            .fold((true, 0.0), |(ok, d), &(o, e)| (ok && o, d.max(e)))
+        // Applied: the next pass (a half kick with the same force) must not add them again.
+        for spill in &mut self.spills {
+            spill.clear();
+        }
+        self.chunk_result[..self.bounds.len() - 1].iter().fold(
+            ChunkVerdict {
+                sane: true,
+                moved_far: false,
+            },
+            |a, b| ChunkVerdict {
+                sane: a.sane && b.sane,
+                moved_far: a.moved_far || b.moved_far,
+            },
+        )
     }
 
     /// The error for the first grain whose state blew up.
@@ -475,7 +478,6 @@ impl NativeDem {
     /// The steps of one `advance` call, with the team running.
     fn advance_with(&mut self, steps: u64, team: &Team) -> Result<(), BackendError> {
         let dt = self.cfg.dt;
-        let skin_limit2 = 0.25 * self.cfg.skin * self.cfg.skin;
         if self.rebuild_pending {
             let t0 = Instant::now();
             self.rebuild();
@@ -486,7 +488,7 @@ impl NativeDem {
             self.timer.add("forces", t0.elapsed().as_secs_f64());
         }
         let t0 = Instant::now();
-        let (_, mut disp2) = self.integrate(team, Phase::KickDrift);
+        let mut moved_far = self.integrate(team, Phase::KickDrift).moved_far;
         self.timer.add("integrate", t0.elapsed().as_secs_f64());
         for k in 0..steps {
             self.time += dt;
@@ -500,7 +502,7 @@ impl NativeDem {
             }
             let t2 = Instant::now();
             self.timer.add("inlet_outlet", (t2 - t1).as_secs_f64());
-            if self.rebuild_pending || disp2 > skin_limit2 {
+            if self.rebuild_pending || moved_far {
                 self.rebuild();
                 self.predict_velocities(true);
             }
@@ -516,12 +518,12 @@ impl NativeDem {
             } else {
                 Phase::KickKickDrift
             };
-            let (ok, d) = self.integrate(team, phase);
+            let verdict = self.integrate(team, phase);
             self.timer.add("integrate", t4.elapsed().as_secs_f64());
-            if !ok {
+            if !verdict.sane {
                 return Err(self.blowup_error());
             }
-            disp2 = d;
+            moved_far = verdict.moved_far;
         }
         Ok(())
     }
@@ -551,12 +553,14 @@ impl Phase {
 
 /// Columns the integration phases write, shared over the team by disjoint chunks.
 struct IntegrateColumns {
+    force: Shared<Vec3>,
+    torque: Shared<Vec3>,
     velocity: Shared<Vec3>,
     position: Shared<Vec3>,
     angular_velocity: Shared<Vec3>,
     velocity_pred: Shared<Vec3>,
     angular_velocity_pred: Shared<Vec3>,
-    result: Shared<(bool, Real)>,
+    result: Shared<ChunkVerdict>,
 }
 
 /// Disjoint borrows of the engine for one force phase.
@@ -630,16 +634,9 @@ impl ForceJob<'_> {
             };
             chunk_forces(laws, &set, g, start, partner, near_wall, out);
         });
-        // Partner shares across chunk boundaries and wall forces, in chunk order.
-        for spill in self.spills[..active].iter() {
-            for sp in spill {
-                let j = sp.j as usize;
-                vec3::add_assign(&mut s.force[j], sp.force);
-                if cfg.rotation {
-                    vec3::add_assign(&mut s.torque[j], sp.torque);
-                }
-            }
-        }
+        // Partner shares across chunk boundaries wait in the spill lists: the integration
+        // pass that follows adds them, each chunk its own grains' in parallel. Wall forces
+        // here, in chunk order.
         for w in 0..nw {
             self.wall_force[w] = [0.0; 3];
             for acc in self.chunk_wall_force[..active].iter() {
