@@ -4,9 +4,9 @@
 //! LIGGGHTS comes from (`cargo bench --bench dem_bench`).
 //!
 //! Threads split the grains into contiguous index ranges; a thread owns the force entries of
-//! its range, and a pair whose partner j lies in a later range sends j's share to a spill list
-//! applied after the join in a fixed order, so a run is bitwise reproducible for a given
-//! thread count.
+//! its range, and a pair whose partner j lies in a later range sends j's share to a spill list.
+//! The integration pass that follows adds the spills, each chunk those of its own grains, in
+//! chunk order and list order, so a run is bitwise reproducible for a given thread count.
 
 use super::contact::{NormalLaw, TangentialLaw};
 use super::lanes::{Lanes, Num, LANES};
