@@ -88,13 +88,8 @@ fn main() {
         bed.len() as f64 * steps as f64 / secs
     };
     let native = |threads: usize| -> f64 {
-        let mut rates: Vec<f64> = (0..repeat).map(|_| native_once(threads)).collect();
-        rates.sort_by(f64::total_cmp);
-        if repeat > 1 {
-            let list: Vec<String> = rates.iter().map(|r| format!("{r:.4e}")).collect();
-            eprintln!("  {threads} threads, {repeat} runs: {}", list.join(" "));
-        }
-        rates[repeat / 2]
+        let rates = (0..repeat).map(|_| native_once(threads)).collect();
+        median(&format!("{threads} threads"), rates)
     };
     let n1 = native(1);
     println!("native 1 thread : {:.3e} particle-steps/s", n1);
@@ -113,14 +108,7 @@ fn main() {
     // machine's noise alike.
     let liggghts_rates: Result<Vec<f64>, String> =
         (0..repeat).map(|_| liggghts(&work, &bed, steps)).collect();
-    let liggghts_median = liggghts_rates.map(|mut rates| {
-        rates.sort_by(f64::total_cmp);
-        if repeat > 1 {
-            let list: Vec<String> = rates.iter().map(|r| format!("{r:.4e}")).collect();
-            eprintln!("  liggghts, {repeat} runs: {}", list.join(" "));
-        }
-        rates[repeat / 2]
-    });
+    let liggghts_median = liggghts_rates.map(|rates| median("liggghts", rates));
     let ratio = match liggghts_median {
         Ok(l) => {
             println!("liggghts 1 proc : {:.3e} particle-steps/s", l);
@@ -176,6 +164,16 @@ fn main() {
         Some(r) => println!("ratio native/liggghts: {r:.2}"),
         None => println!("ratio native/liggghts: unavailable"),
     }
+}
+
+/// The median of repeated timings (each listed on stderr when there are several).
+fn median(label: &str, mut rates: Vec<f64>) -> f64 {
+    rates.sort_by(f64::total_cmp);
+    if rates.len() > 1 {
+        let list: Vec<String> = rates.iter().map(|r| format!("{r:.4e}")).collect();
+        eprintln!("  {label}, {} runs: {}", rates.len(), list.join(" "));
+    }
+    rates[rates.len() / 2]
 }
 
 /// Time `steps` steps of the bed through an ABI library: once in one advance, once in

@@ -11,39 +11,90 @@
 
 mod common;
 
-use common::plugflow;
+use std::path::PathBuf;
 
-#[test]
-fn dunes_grow_at_the_bottom_into_plugs_the_gas_pushes_on() {
+use common::plugflow;
+use ndarray::Array2;
+
+/// Pipe diameter and grain diameter of the case, m.
+const PIPE_D: f64 = 0.08;
+const GRAIN_D: f64 = 3e-3;
+/// The pipe is looked at in 16 mm stretches (a gas cell's length) ...
+const STRETCH: f64 = 0.016;
+const STRETCHES: usize = 125;
+/// ... past the first 10 cm (7 stretches), where the inlet places grains across the section.
+const FEED_ZONE: usize = 7;
+
+/// Run the short case with extra CLI arguments into a fresh directory named by `tag`; checks
+/// it completed without losing a grain and returns the directory and summary.json.
+fn run_short_case(tag: &str, extra: &[&str]) -> (PathBuf, serde_json::Value) {
     let case = concat!(
         env!("CARGO_MANIFEST_DIR"),
         "/cases/xiang_mcglinchey_short.toml"
     );
-    let out = std::env::temp_dir().join(format!("plugflow_xm_{}", std::process::id()));
+    let out = std::env::temp_dir().join(format!("plugflow_{tag}_{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&out);
-    let (code, text) = plugflow(&["run", case, "--out", out.to_str().unwrap(), "--quiet"]);
+    let mut args = vec!["run", case, "--out", out.to_str().unwrap(), "--quiet"];
+    args.extend_from_slice(extra);
+    let (code, text) = plugflow(&args);
     assert_eq!(code, 0, "{text}");
     let summary: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
     assert_eq!(summary["status"], "completed", "{summary}");
-    // The feed is never blocked: 0.0677 kg/s of 3 mm nylon is 4221 grains/s for 2 s.
-    let fed = summary["grains_fed"].as_f64().unwrap();
-    assert!((fed / (2.0 * 4221.0) - 1.0).abs() < 0.01, "fed {fed}");
     assert_eq!(summary["grains_lost"].as_f64().unwrap(), 0.0, "{summary}");
+    (out, summary)
+}
 
-    let (r_pipe, d, slab) = (0.04, 3e-3, 3.3e-3);
+/// The particle snapshots of run.h5 in time order: (time, positions, velocities).
+fn snapshots(out: &std::path::Path) -> Vec<(f64, Array2<f64>, Array2<f64>)> {
     let f = hdf5::File::open(out.join("run.h5")).unwrap();
     let mut names = f.group("particles").unwrap().member_names().unwrap();
     names.sort();
-    assert_eq!(names.len(), 20, "snapshots every 0.1 s: {names:?}");
+    names
+        .iter()
+        .map(|name| {
+            let g = f.group(&format!("particles/{name}")).unwrap();
+            (
+                g.attr("time").unwrap().read_scalar().unwrap(),
+                g.dataset("position").unwrap().read_2d().unwrap(),
+                g.dataset("velocity").unwrap().read_2d().unwrap(),
+            )
+        })
+        .collect()
+}
+
+/// Height of the pile's top above the pipe's bottom in each stretch (0 where empty), m.
+fn pile_heights(x: &Array2<f64>) -> Vec<f64> {
+    let mut height = vec![0.0_f64; STRETCHES];
+    for row in x.rows() {
+        let k = (row[0] / STRETCH) as usize;
+        if k < STRETCHES {
+            height[k] = height[k].max(row[2] + 0.5 * GRAIN_D + 0.5 * PIPE_D);
+        }
+    }
+    height
+}
+
+/// The first stretch past the feed zone that starts three in a row (48 mm) piled to at
+/// least `fill` m.
+fn filled_run(height: &[f64], fill: f64) -> Option<usize> {
+    (FEED_ZONE..STRETCHES - 2).find(|&k| height[k..k + 3].iter().all(|&h| h >= fill))
+}
+
+#[test]
+fn dunes_grow_at_the_bottom_into_plugs_the_gas_pushes_on() {
+    let (out, summary) = run_short_case("xm", &[]);
+    // The feed is never blocked: 0.0677 kg/s of 3 mm nylon is 4221 grains/s for 2 s.
+    let fed = summary["grains_fed"].as_f64().unwrap();
+    assert!((fed / (2.0 * 4221.0) - 1.0).abs() < 0.01, "fed {fed}");
+
+    let (d, slab) = (GRAIN_D, 3.3e-3);
+    let frames = snapshots(&out);
+    assert_eq!(frames.len(), 20, "snapshots every 0.1 s");
     let mut plug_seen = None;
     let mut dune_frames = 0;
     let mut last = None;
-    for name in &names {
-        let g = f.group(&format!("particles/{name}")).unwrap();
-        let t: f64 = g.attr("time").unwrap().read_scalar().unwrap();
-        let x = g.dataset("position").unwrap().read_2d::<f64>().unwrap();
-        let v = g.dataset("velocity").unwrap().read_2d::<f64>().unwrap();
+    for (t, x, v) in frames {
         // The slab holds every grain: |y| ≤ (slab − d)/2, plus a contact's overlap (the
         // Hertz overlap under a plug's load is well under 1 % of d).
         for row in x.rows() {
@@ -53,20 +104,9 @@ fn dunes_grow_at_the_bottom_into_plugs_the_gas_pushes_on() {
                 row[1]
             );
         }
-        // Top of the pile in each 16 mm stretch (a gas cell's length) past the 10 cm where
-        // the inlet places grains across the whole section.
-        let bins = 125;
-        let mut top = vec![f64::NEG_INFINITY; bins];
-        for row in x.rows() {
-            let k = (row[0] / 0.016) as usize;
-            if k < bins {
-                top[k] = top[k].max(row[2] + 0.5 * d);
-            }
-        }
-        // A plug: three stretches in a row (48 mm) filled to within a grain of the top.
-        let full: Vec<bool> = top.iter().map(|&z| z >= r_pipe - d).collect();
-        if let Some(k) = (7..bins - 2).find(|&k| full[k] && full[k + 1] && full[k + 2]) {
-            plug_seen.get_or_insert((t, k as f64 * 0.016));
+        // A plug: three stretches in a row filled to within a grain of the top.
+        if let Some(k) = filled_run(&pile_heights(&x), PIPE_D - d) {
+            plug_seen.get_or_insert((t, k as f64 * STRETCH));
         }
         // Until then the grains past the feed zone lie at the bottom, a dune: more than
         // two thirds in the pipe's lower half (a suspension would fill both halves alike;
@@ -133,62 +173,31 @@ fn dunes_grow_at_the_bottom_into_plugs_the_gas_pushes_on() {
 /// layer 22 mm deep on average and nowhere above 39 mm.
 #[test]
 fn a_slug_left_without_feed_collapses_into_a_stationary_layer() {
-    let case = concat!(
-        env!("CARGO_MANIFEST_DIR"),
-        "/cases/xiang_mcglinchey_short.toml"
-    );
-    let out = std::env::temp_dir().join(format!("plugflow_xm_layer_{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&out);
     let valve_closes = 1.2;
-    let (code, text) = plugflow(&[
-        "run",
-        case,
-        "--out",
-        out.to_str().unwrap(),
-        "--quiet",
-        "--duration",
-        "3",
-        "--set",
-        "inlet.until=1.2 s",
-        // One thread: the dune test above runs beside this one on two.
-        "--set",
-        "dem.threads=1",
-    ]);
-    assert_eq!(code, 0, "{text}");
-    let summary: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
-    assert_eq!(summary["status"], "completed", "{summary}");
-    assert_eq!(summary["grains_lost"].as_f64().unwrap(), 0.0, "{summary}");
-
-    let (pipe_d, d) = (0.08, 3e-3);
-    let bins = 125; // 16 mm stretches, a gas cell's length
-    let feed_zone = 7; // the first 10 cm (7 stretches), where the inlet places grains
-    let f = hdf5::File::open(out.join("run.h5")).unwrap();
-    let mut names = f.group("particles").unwrap().member_names().unwrap();
-    names.sort();
+    let (out, _) = run_short_case(
+        "xm_layer",
+        &[
+            "--duration",
+            "3",
+            "--set",
+            "inlet.until=1.2 s",
+            // One thread: the dune test above runs beside this one on two.
+            "--set",
+            "dem.threads=1",
+        ],
+    );
+    let pipe_d = PIPE_D;
     let mut slug_after_valve = None;
     let mut mean_x_at_valve = None;
     let mut last = None;
-    for name in &names {
-        let g = f.group(&format!("particles/{name}")).unwrap();
-        let t: f64 = g.attr("time").unwrap().read_scalar().unwrap();
-        let x = g.dataset("position").unwrap().read_2d::<f64>().unwrap();
-        let v = g.dataset("velocity").unwrap().read_2d::<f64>().unwrap();
-        // Height of the pile's top above the pipe's bottom in each stretch.
-        let mut height = vec![0.0_f64; bins];
-        for row in x.rows() {
-            let k = (row[0] / 0.016) as usize;
-            if k < bins {
-                height[k] = height[k].max(row[2] + 0.5 * d + 0.5 * pipe_d);
-            }
-        }
+    for (t, x, v) in snapshots(&out) {
+        let height = pile_heights(&x);
         let mean_x = x.column(0).mean().unwrap_or(0.0);
         if t >= valve_closes - 1e-9 {
             mean_x_at_valve.get_or_insert(mean_x);
             // A slug: three stretches in a row (48 mm) filled to 90 % of the pipe's height
             // (measured 75.6 mm = 0.945 D).
-            let full: Vec<bool> = height.iter().map(|&h| h >= 0.9 * pipe_d).collect();
-            if (feed_zone..bins - 2).any(|k| full[k] && full[k + 1] && full[k + 2]) {
+            if filled_run(&height, 0.9 * pipe_d).is_some() {
                 slug_after_valve = Some(t);
             }
         }
@@ -200,18 +209,18 @@ fn a_slug_left_without_feed_collapses_into_a_stationary_layer() {
     assert!(t > 2.8, "last snapshot at {t} s");
     // The slug collapsed: nothing past the feed zone stands higher than 0.6 D (the slug
     // filled 0.9 D and more; measured 39 mm = 0.49 D) ...
-    let highest = height[feed_zone..].iter().cloned().fold(0.0, f64::max);
+    let highest = height[FEED_ZONE..].iter().cloned().fold(0.0, f64::max);
     println!("  highest pile {:.1} mm", highest * 1e3);
     assert!(highest < 0.6 * pipe_d, "a pile {highest} m high remains");
     // ... into a layer that covers the bottom (at least 0.1 D deep on average from the feed
     // zone to the farthest grain; measured 22 mm) ...
     let front = height.iter().rposition(|&h| h > 0.0).unwrap();
-    let layer = &height[feed_zone..=front];
+    let layer = &height[FEED_ZONE..=front];
     let depth = layer.iter().sum::<f64>() / layer.len() as f64;
     println!(
         "  layer {:.1} mm deep on average to {:.2} m",
         depth * 1e3,
-        front as f64 * 0.016
+        front as f64 * STRETCH
     );
     assert!(depth > 0.1 * pipe_d, "layer {depth} m deep");
     // ... after the gas carried the slug on (the grains' mean position moved ≥ 0.2 m;

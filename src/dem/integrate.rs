@@ -55,6 +55,22 @@ pub struct ChunkVerdict {
     pub moved_far: bool,
 }
 
+impl ChunkVerdict {
+    /// The verdict on no grains at all.
+    pub const CLEAN: Self = Self {
+        sane: true,
+        moved_far: false,
+    };
+
+    /// The verdict on two sets of grains together.
+    pub fn and(self, other: Self) -> Self {
+        Self {
+            sane: self.sane && other.sane,
+            moved_far: self.moved_far || other.moved_far,
+        }
+    }
+}
+
 /// One pass of the integrator over a chunk.
 pub fn integrate_chunk(cols: ChunkColumns<'_>, kind: PassKind) -> ChunkVerdict {
     #[cfg(target_arch = "x86_64")]
@@ -87,10 +103,7 @@ fn integrate_chunk_body(cols: ChunkColumns<'_>, kind: PassKind) -> ChunkVerdict 
         reference,
     } = cols;
     let n = velocity.len();
-    let mut verdict = ChunkVerdict {
-        sane: true,
-        moved_far: false,
-    };
+    let mut verdict = ChunkVerdict::CLEAN;
     let linear = Kicked {
         rate: &force[..n],
         inv_inertia: &inv_mass[..n],
@@ -286,13 +299,7 @@ mod tests {
             };
         let (mut v, mut x, mut w) = (v0.clone(), x0.clone(), w0.clone());
         let (verdict, vp, wp) = run(&mut v, &mut x, &mut w, &x_ref, kind);
-        assert_eq!(
-            verdict,
-            ChunkVerdict {
-                sane: true,
-                moved_far: false
-            }
-        );
+        assert_eq!(verdict, ChunkVerdict::CLEAN);
         let h = 0.5 * kind.dt;
         for k in 0..n {
             let (a, b) = (inv_mass[k] * h, inv_inertia[k] * h);
@@ -311,34 +318,23 @@ mod tests {
             ..kind
         };
         for k in [1, 5] {
-            let fresh = || (v0.clone(), x0.clone(), w0.clone());
-            let (mut v, mut x, mut w) = fresh();
-            assert!(!run(&mut v, &mut x, &mut w, &x_ref, far).0.moved_far);
+            // The verdict after `edit` changes the velocities or spins of the fresh state.
+            let verdict = |edit: &dyn Fn(&mut [Vec3], &mut [Vec3]), x_ref: &[Vec3], kind| {
+                let (mut v, mut x, mut w) = (v0.clone(), x0.clone(), w0.clone());
+                edit(&mut v, &mut w);
+                run(&mut v, &mut x, &mut w, x_ref, kind).0
+            };
+            let untouched = |_: &mut [Vec3], _: &mut [Vec3]| {};
+            assert!(!verdict(&untouched, &x_ref, far).moved_far);
             let mut moved = x_ref.clone();
             moved[k][1] -= 2e-3;
-            let (mut v, mut x, mut w) = fresh();
-            assert!(
-                run(&mut v, &mut x, &mut w, &moved, far).0.moved_far,
-                "grain {k} far"
-            );
-            let (mut v, mut x, mut w) = fresh();
-            v[k][2] = Real::NAN;
-            assert!(
-                !run(&mut v, &mut x, &mut w, &x_ref, kind).0.sane,
-                "NaN in grain {k}"
-            );
-            let (mut v, mut x, mut w) = fresh();
-            v[k][0] = 2.0 * BLOWUP_SPEED;
-            assert!(
-                !run(&mut v, &mut x, &mut w, &x_ref, kind).0.sane,
-                "speed of grain {k}"
-            );
-            let (mut v, mut x, mut w) = fresh();
-            w[k][0] = Real::INFINITY;
-            assert!(
-                !run(&mut v, &mut x, &mut w, &x_ref, kind).0.sane,
-                "spin of grain {k}"
-            );
+            assert!(verdict(&untouched, &moved, far).moved_far, "grain {k} far");
+            let nan = |v: &mut [Vec3], _: &mut [Vec3]| v[k][2] = Real::NAN;
+            assert!(!verdict(&nan, &x_ref, kind).sane, "NaN in grain {k}");
+            let fast = |v: &mut [Vec3], _: &mut [Vec3]| v[k][0] = 2.0 * BLOWUP_SPEED;
+            assert!(!verdict(&fast, &x_ref, kind).sane, "speed of grain {k}");
+            let spin = |_: &mut [Vec3], w: &mut [Vec3]| w[k][0] = Real::INFINITY;
+            assert!(!verdict(&spin, &x_ref, kind).sane, "spin of grain {k}");
         }
     }
 }

@@ -130,13 +130,7 @@ impl NativeDem {
             }),
             threads: TeamThreads::start(cfg.threads),
             bounds: Vec::new(),
-            chunk_result: vec![
-                ChunkVerdict {
-                    sane: true,
-                    moved_far: false
-                };
-                cfg.threads
-            ],
+            chunk_result: vec![ChunkVerdict::CLEAN; cfg.threads],
             velocity_pred: Vec::new(),
             angular_velocity_pred: Vec::new(),
             cfg,
@@ -440,16 +434,9 @@ impl NativeDem {
         for spill in &mut self.spills {
             spill.clear();
         }
-        self.chunk_result[..self.bounds.len() - 1].iter().fold(
-            ChunkVerdict {
-                sane: true,
-                moved_far: false,
-            },
-            |a, b| ChunkVerdict {
-                sane: a.sane && b.sane,
-                moved_far: a.moved_far || b.moved_far,
-            },
-        )
+        self.chunk_result[..self.bounds.len() - 1]
+            .iter()
+            .fold(ChunkVerdict::CLEAN, |a, &b| a.and(b))
     }
 
     /// The error for the first grain whose state blew up.
