@@ -142,7 +142,13 @@ fn checked_scene(
             return Err(ExitCode::from(2));
         }
     }
-    Scene::load(scene, set).map_err(|e| {
+    // The checks (e.g. `output.settling_time` < duration) must see the duration the run
+    // will use, so `--duration` goes in as the last override.
+    let mut overrides = set.to_vec();
+    if let Some(d) = duration {
+        overrides.push(format!("duration={d}"));
+    }
+    Scene::load(scene, &overrides).map_err(|e| {
         eprintln!("error: {e}");
         ExitCode::from(2)
     })

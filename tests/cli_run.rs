@@ -51,6 +51,46 @@ fn run_writes_summary_with_required_keys() {
     std::fs::remove_dir_all(&out).ok();
 }
 
+/// `--duration` is part of what the scene's checks see: a settling time past the scene's own
+/// duration but inside the one asked for on the command line is accepted (and refused, naming
+/// the field, without `--duration`).
+#[test]
+fn duration_flag_counts_in_the_scene_checks() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let out = std::env::temp_dir().join(format!("plugflow-cli-dur-{}", std::process::id()));
+    let case = root.join("tests/scenes/good/box_with_planes.toml"); // duration 0.01 s
+    let args = |extra: &[&'static str]| {
+        let mut a = vec![
+            "run".to_string(),
+            case.to_str().unwrap().to_string(),
+            "--out".to_string(),
+            out.to_str().unwrap().to_string(),
+            "--quiet".to_string(),
+            "--set".to_string(),
+            "output.settling_time=0.015 s".to_string(),
+        ];
+        a.extend(extra.iter().map(|s| s.to_string()));
+        a
+    };
+    let refused = args(&[]);
+    let refused: Vec<&str> = refused.iter().map(String::as_str).collect();
+    let (code, text) = plugflow(&refused);
+    assert_eq!(code, 2, "{text}");
+    assert!(text.contains("output.settling_time"), "{text}");
+
+    let accepted = args(&["--duration", "0.02"]);
+    let accepted: Vec<&str> = accepted.iter().map(String::as_str).collect();
+    let (code, text) = plugflow(&accepted);
+    assert_eq!(code, 0, "{text}");
+    let s: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
+    assert!(
+        (s["simulated_time_s"].as_f64().unwrap() - 0.02).abs() < 1e-9,
+        "{s}"
+    );
+    std::fs::remove_dir_all(&out).ok();
+}
+
 #[test]
 fn blow_up_stops_with_step_and_grain_and_keeps_the_summary() {
     // A grain moving at 1e5 m/s: above the blow-up speed, caught at the first half kick.
