@@ -142,13 +142,15 @@ fn checked_scene(
             return Err(ExitCode::from(2));
         }
     }
-    // The checks (e.g. `output.settling_time` < duration) must see the duration the run
-    // will use, so `--duration` goes in as the last override.
-    let mut overrides = set.to_vec();
-    if let Some(d) = duration {
-        overrides.push(format!("duration={d}"));
-    }
-    Scene::load(scene, &overrides).map_err(|e| {
+    // A scene passes with its own duration (so a short trial run of a long case is fine) or
+    // with `--duration`'s (so `--set output.settling_time=…` may point past the scene's end
+    // when the run goes that far); when neither passes, the error is the one for the run.
+    let loaded = match (Scene::load(scene, set), duration) {
+        (Ok(s), _) => Ok(s),
+        (Err(e), None) => Err(e),
+        (Err(_), Some(d)) => Scene::load(scene, &[set, &[format!("duration={d}")]].concat()),
+    };
+    loaded.map_err(|e| {
         eprintln!("error: {e}");
         ExitCode::from(2)
     })
