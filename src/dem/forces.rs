@@ -67,6 +67,78 @@ pub struct UniformPair {
     pub radius: Real,
 }
 
+/// Radii and masses of the grains a contact group joins: constants when all grains are
+/// alike ([`UniformPair`]), else read per grain ([`EachOwn`]). A type, not a run-time
+/// branch, so the alike case compiles to splatted constants and loads no radius or mass.
+trait Sizes: Copy {
+    /// Radius of grain i, m.
+    fn radius(self, g: &GrainsIn<'_>, i: usize) -> Real;
+    /// (r_i, r_j, sqrt(m*), r*) of grain pairs (i, j).
+    fn pair(
+        self,
+        g: &GrainsIn<'_>,
+        i: &[usize; LANES],
+        j: &[usize; LANES],
+    ) -> (Lanes, Lanes, Lanes, Lanes);
+    /// (r_i, sqrt(m_i)) of grains i against a wall.
+    fn wall(self, g: &GrainsIn<'_>, i: &[usize; LANES]) -> (Lanes, Lanes);
+}
+
+impl Sizes for UniformPair {
+    #[inline(always)]
+    fn radius(self, _: &GrainsIn<'_>, _: usize) -> Real {
+        self.radius
+    }
+    #[inline(always)]
+    fn pair(
+        self,
+        _: &GrainsIn<'_>,
+        _: &[usize; LANES],
+        _: &[usize; LANES],
+    ) -> (Lanes, Lanes, Lanes, Lanes) {
+        let r = Lanes::splat(self.radius);
+        (
+            r,
+            r,
+            Lanes::splat(self.sqrt_m_eff),
+            Lanes::splat(self.r_eff),
+        )
+    }
+    #[inline(always)]
+    fn wall(self, _: &GrainsIn<'_>, _: &[usize; LANES]) -> (Lanes, Lanes) {
+        (Lanes::splat(self.radius), Lanes::splat(self.sqrt_m))
+    }
+}
+
+/// Grains of several sizes or densities: each pair's constants from its grains.
+#[derive(Clone, Copy)]
+struct EachOwn;
+
+impl Sizes for EachOwn {
+    #[inline(always)]
+    fn radius(self, g: &GrainsIn<'_>, i: usize) -> Real {
+        g.radius[i]
+    }
+    #[inline(always)]
+    fn pair(
+        self,
+        g: &GrainsIn<'_>,
+        i: &[usize; LANES],
+        j: &[usize; LANES],
+    ) -> (Lanes, Lanes, Lanes, Lanes) {
+        let (ri, rj) = (Lanes(i.map(|i| g.radius[i])), Lanes(j.map(|j| g.radius[j])));
+        let (mi, mj) = (Lanes(i.map(|i| g.mass[i])), Lanes(j.map(|j| g.mass[j])));
+        (ri, rj, (mi * mj / (mi + mj)).sqrt(), ri * rj / (ri + rj))
+    }
+    #[inline(always)]
+    fn wall(self, g: &GrainsIn<'_>, i: &[usize; LANES]) -> (Lanes, Lanes) {
+        (
+            Lanes(i.map(|i| g.radius[i])),
+            Lanes(i.map(|i| g.mass[i])).sqrt(),
+        )
+    }
+}
+
 /// Settings shared by all chunks of one step.
 pub struct StepSettings<'a> {
     /// Set when all grains have one size and density: pair constants need no division.
@@ -93,8 +165,10 @@ pub struct ContactScratch {
     pair: Vec<u32>,
     /// Grain–grain: the partner j.
     partner: Vec<u32>,
-    /// The contact's grain i (grain–grain: its row; grain–wall: the grain).
+    /// Grain–grain: the contact's grain i (its row).
     grain: Vec<u32>,
+    /// Grain–wall: the grain.
+    wall_grain: Vec<u32>,
     /// Grain–wall: overlap, m.
     wall_overlap: Vec<Real>,
     /// Grain–wall: unit normal from the grain towards the wall.
@@ -137,19 +211,39 @@ pub fn chunk_forces<N: NormalLaw, T: TangentialLaw>(
     near_wall: &[Vec<u32>],
     out: ChunkOut<'_>,
 ) {
+    match set.uniform {
+        Some(u) => chunk_forces_sized(laws, set, g, start, partner, near_wall, out, u),
+        None => chunk_forces_sized(laws, set, g, start, partner, near_wall, out, EachOwn),
+    }
+}
+
+/// [`chunk_forces`] for one kind of [`Sizes`]: the AVX2 build when the CPU has it.
+#[allow(clippy::too_many_arguments)]
+#[inline(always)]
+fn chunk_forces_sized<N: NormalLaw, T: TangentialLaw, S: Sizes>(
+    laws: &Laws<N, T>,
+    set: &StepSettings<'_>,
+    g: GrainsIn<'_>,
+    start: &[u32],
+    partner: &[u32],
+    near_wall: &[Vec<u32>],
+    out: ChunkOut<'_>,
+    sizes: S,
+) {
     #[cfg(target_arch = "x86_64")]
     if std::arch::is_x86_feature_detected!("avx2") {
         // SAFETY: the CPU has AVX2 (checked just above).
-        unsafe { chunk_forces_avx2(laws, set, g, start, partner, near_wall, out) };
+        unsafe { chunk_forces_avx2(laws, set, g, start, partner, near_wall, out, sizes) };
         return;
     }
-    chunk_forces_body(laws, set, g, start, partner, near_wall, out);
+    chunk_forces_body(laws, set, g, start, partner, near_wall, out, sizes);
 }
 
 /// [`chunk_forces_body`] compiled for AVX2 (no FMA: the same roundings as the baseline).
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
-unsafe fn chunk_forces_avx2<N: NormalLaw, T: TangentialLaw>(
+#[allow(clippy::too_many_arguments)]
+unsafe fn chunk_forces_avx2<N: NormalLaw, T: TangentialLaw, S: Sizes>(
     laws: &Laws<N, T>,
     set: &StepSettings<'_>,
     g: GrainsIn<'_>,
@@ -157,12 +251,14 @@ unsafe fn chunk_forces_avx2<N: NormalLaw, T: TangentialLaw>(
     partner: &[u32],
     near_wall: &[Vec<u32>],
     out: ChunkOut<'_>,
+    sizes: S,
 ) {
-    chunk_forces_body(laws, set, g, start, partner, near_wall, out);
+    chunk_forces_body(laws, set, g, start, partner, near_wall, out, sizes);
 }
 
+#[allow(clippy::too_many_arguments)]
 #[inline(always)]
-fn chunk_forces_body<N: NormalLaw, T: TangentialLaw>(
+fn chunk_forces_body<N: NormalLaw, T: TangentialLaw, S: Sizes>(
     laws: &Laws<N, T>,
     set: &StepSettings<'_>,
     g: GrainsIn<'_>,
@@ -170,9 +266,20 @@ fn chunk_forces_body<N: NormalLaw, T: TangentialLaw>(
     partner: &[u32],
     near_wall: &[Vec<u32>],
     out: ChunkOut<'_>,
+    sizes: S,
 ) {
     let lo = out.lo;
     let hi = lo + out.force.len();
+    // Every column cut to one length: a lane's index is then checked once, not per column.
+    let n = g.position.len();
+    let g = GrainsIn {
+        position: &g.position[..n],
+        velocity: &g.velocity[..n],
+        angular_velocity: &g.angular_velocity[..n],
+        radius: &g.radius[..n],
+        mass: &g.mass[..n],
+        external_force: &g.external_force[..n],
+    };
     let hist_off = start[lo] as usize;
     let sc = out.scratch;
     for f in out.force.iter_mut() {
@@ -185,24 +292,29 @@ fn chunk_forces_body<N: NormalLaw, T: TangentialLaw>(
     }
 
     // Grain–grain: contacts of the chunk's rows.
-    sc.pair.clear();
-    sc.partner.clear();
-    sc.grain.clear();
+    // The lists sized for every pair of the rows to touch: filled by index, no push.
+    let rows_pairs = start[hi] as usize - hist_off;
+    for list in [&mut sc.pair, &mut sc.partner, &mut sc.grain] {
+        if list.len() < rows_pairs {
+            list.resize(rows_pairs, 0);
+        }
+    }
+    let mut nc = 0;
     for i in lo..hi {
-        let (xi, ri) = (g.position[i], g.radius[i]);
+        let (xi, ri) = (g.position[i], sizes.radius(&g, i));
         for k in start[i] as usize..start[i + 1] as usize {
             let j = partner[k] as usize;
-            let rs = ri + g.radius[j];
+            let rs = ri + sizes.radius(&g, j);
             if norm2(sub(g.position[j], xi)) < rs * rs {
-                sc.pair.push(k as u32);
-                sc.partner.push(j as u32);
-                sc.grain.push(i as u32);
+                sc.pair[nc] = k as u32;
+                sc.partner[nc] = j as u32;
+                sc.grain[nc] = i as u32;
+                nc += 1;
             } else if T::USES_HISTORY {
                 out.history[k - hist_off] = [0.0; 3];
             }
         }
     }
-    let nc = sc.pair.len();
     for base in (0..nc).step_by(LANES) {
         let slots = lane_slots(base, nc);
         let k = slots.map(|c| sc.pair[c] as usize);
@@ -214,7 +326,7 @@ fn chunk_forces_body<N: NormalLaw, T: TangentialLaw>(
         } else {
             [Lanes::splat(0.0); 3]
         };
-        let (f, arm) = pair_lanes(laws, set, &g, i, j, &mut shear);
+        let (f, arm) = pair_lanes(laws, set, sizes, &g, i, j, &mut shear);
         // Each contact's force and torque to its two grains, in list order.
         for l in 0..LANES.min(nc - base) {
             if T::USES_HISTORY {
@@ -224,8 +336,8 @@ fn chunk_forces_body<N: NormalLaw, T: TangentialLaw>(
             add_assign(&mut out.force[i - lo], f);
             let tj = if set.rotation {
                 let arm = lane(arm, l);
-                add_assign(&mut out.torque[i - lo], scale(arm, g.radius[i]));
-                scale(arm, g.radius[j])
+                add_assign(&mut out.torque[i - lo], scale(arm, sizes.radius(&g, i)));
+                scale(arm, sizes.radius(&g, j))
             } else {
                 [0.0; 3]
             };
@@ -247,9 +359,6 @@ fn chunk_forces_body<N: NormalLaw, T: TangentialLaw>(
     // Walls, one at a time: a partner of infinite mass and radius, at rest.
     let nw = set.walls.len();
     for (w, wall) in set.walls.iter().enumerate() {
-        sc.grain.clear();
-        sc.wall_overlap.clear();
-        sc.wall_normal.clear();
         // Grains [lo, hi) of the wall's near list; all others are more than half a skin
         // away and their histories with it already zero.
         let near = &near_wall[w];
@@ -257,13 +366,20 @@ fn chunk_forces_body<N: NormalLaw, T: TangentialLaw>(
             near.partition_point(|&i| (i as usize) < lo),
             near.partition_point(|&i| (i as usize) < hi),
         );
+        if sc.wall_grain.len() < b - a {
+            sc.wall_grain.resize(b - a, 0);
+            sc.wall_overlap.resize(b - a, 0.0);
+            sc.wall_normal.resize(b - a, [0.0; 3]);
+        }
+        let mut nc = 0;
         for &i in &near[a..b] {
             let i = i as usize;
-            match wall.contact(g.position[i], g.radius[i]) {
+            match wall.contact(g.position[i], sizes.radius(&g, i)) {
                 Some((overlap, n)) => {
-                    sc.grain.push(i as u32);
-                    sc.wall_overlap.push(overlap);
-                    sc.wall_normal.push(n);
+                    sc.wall_grain[nc] = i as u32;
+                    sc.wall_overlap[nc] = overlap;
+                    sc.wall_normal[nc] = n;
+                    nc += 1;
                 }
                 None => {
                     if T::USES_HISTORY {
@@ -272,11 +388,10 @@ fn chunk_forces_body<N: NormalLaw, T: TangentialLaw>(
                 }
             }
         }
-        let nc = sc.grain.len();
         let mut on_wall = [0.0; 3];
         for base in (0..nc).step_by(LANES) {
             let slots = lane_slots(base, nc);
-            let i = slots.map(|c| sc.grain[c] as usize);
+            let i = slots.map(|c| sc.wall_grain[c] as usize);
             let slot = i.map(|i| (i - lo) * nw + w);
             let mut shear = if T::USES_HISTORY {
                 gather3(out.wall_history, &slot)
@@ -285,7 +400,7 @@ fn chunk_forces_body<N: NormalLaw, T: TangentialLaw>(
             };
             let overlap = Lanes(slots.map(|c| sc.wall_overlap[c]));
             let n = gather3(&sc.wall_normal, &slots);
-            let (f, arm) = wall_lanes(laws, w, set, &g, i, overlap, n, &mut shear);
+            let (f, arm) = wall_lanes(laws, w, set, sizes, &g, i, overlap, n, &mut shear);
             for l in 0..LANES.min(nc - base) {
                 if T::USES_HISTORY {
                     out.wall_history[slot[l]] = lane(shear, l);
@@ -294,7 +409,10 @@ fn chunk_forces_body<N: NormalLaw, T: TangentialLaw>(
                 add_assign(&mut out.force[i - lo], f);
                 sub_assign(&mut on_wall, f);
                 if set.rotation {
-                    add_assign(&mut out.torque[i - lo], scale(lane(arm, l), g.radius[i]));
+                    add_assign(
+                        &mut out.torque[i - lo],
+                        scale(lane(arm, l), sizes.radius(&g, i)),
+                    );
                 }
             }
         }
@@ -329,30 +447,21 @@ fn lane(v: [Lanes; 3], l: usize) -> Vec3 {
 /// The grain–grain laws on `LANES` contacts (i[l], j[l]) in contact; returns the force on
 /// each i and n × F_t, and updates the contacts' `shear` histories.
 #[inline(always)]
-fn pair_lanes<N: NormalLaw, T: TangentialLaw>(
+#[allow(clippy::too_many_arguments)]
+fn pair_lanes<N: NormalLaw, T: TangentialLaw, S: Sizes>(
     laws: &Laws<N, T>,
     set: &StepSettings<'_>,
+    sizes: S,
     g: &GrainsIn<'_>,
     i: [usize; LANES],
     j: [usize; LANES],
     shear: &mut [Lanes; 3],
 ) -> ([Lanes; 3], [Lanes; 3]) {
     let d = sub(gather3(g.position, &j), gather3(g.position, &i));
-    let (ri, rj) = match set.uniform {
-        Some(u) => (Lanes::splat(u.radius), Lanes::splat(u.radius)),
-        None => (Lanes(i.map(|i| g.radius[i])), Lanes(j.map(|j| g.radius[j]))),
-    };
+    let (ri, rj, sqrt_m_eff, r_eff) = sizes.pair(g, &i, &j);
     let rs = ri + rj;
     let dist = norm2(d).sqrt();
     let n = scale(d, Lanes::splat(1.0) / dist);
-    let (sqrt_m_eff, r_eff) = match set.uniform {
-        Some(u) => (Lanes::splat(u.sqrt_m_eff), Lanes::splat(u.r_eff)),
-        None => {
-            let mi = Lanes(i.map(|i| g.mass[i]));
-            let mj = Lanes(j.map(|j| g.mass[j]));
-            ((mi * mj / (mi + mj)).sqrt(), ri * rj / rs)
-        }
-    };
     let mut vrel = sub(gather3(g.velocity, &i), gather3(g.velocity, &j));
     if set.rotation {
         let (wi, wj) = (
@@ -378,21 +487,18 @@ fn pair_lanes<N: NormalLaw, T: TangentialLaw>(
 /// `n`; returns the force on each grain and n × F_t, and updates their `shear` histories.
 #[allow(clippy::too_many_arguments)]
 #[inline(always)]
-fn wall_lanes<N: NormalLaw, T: TangentialLaw>(
+fn wall_lanes<N: NormalLaw, T: TangentialLaw, S: Sizes>(
     laws: &Laws<N, T>,
     w: usize,
     set: &StepSettings<'_>,
+    sizes: S,
     g: &GrainsIn<'_>,
     i: [usize; LANES],
     overlap: Lanes,
     n: [Lanes; 3],
     shear: &mut [Lanes; 3],
 ) -> ([Lanes; 3], [Lanes; 3]) {
-    let ri = Lanes(i.map(|i| g.radius[i]));
-    let sqrt_m = match set.uniform {
-        Some(u) => Lanes::splat(u.sqrt_m),
-        None => Lanes(i.map(|i| g.mass[i])).sqrt(),
-    };
+    let (ri, sqrt_m) = sizes.wall(g, &i);
     let mut vrel = gather3(g.velocity, &i);
     if set.rotation {
         let wi = gather3(g.angular_velocity, &i);
@@ -456,13 +562,17 @@ mod tests {
         laws: Laws<Hertz, History>,
     }
 
-    fn scene() -> Scene {
+    fn scene(two_sizes: bool) -> Scene {
         let mut rng = Rng::new(7);
         let mut u = |a: Real| a * (2.0 * rng.uniform() - 1.0);
         let n = 40;
         let (mut x, mut v, mut w, mut r, mut m) = (vec![], vec![], vec![], vec![], vec![]);
         for k in 0..n {
-            let rad = if k % 3 == 0 { 0.6e-3 } else { 0.5e-3 };
+            let rad = if two_sizes && k % 3 == 0 {
+                0.6e-3
+            } else {
+                0.5e-3
+            };
             // A column of layers 0.95 mm apart, 4 grains per layer 0.95 mm apart: overlaps.
             let (layer, slot) = ((k / 4) as Real, k % 4);
             let (cx, cy) = [(-1.0, -1.0), (1.0, -1.0), (-1.0, 1.0), (1.0, 1.0)][slot];
@@ -548,14 +658,14 @@ mod tests {
         &[Vec<u32>],
         ChunkOut<'_>,
     );
-    fn run(s: &Scene, body: ForceBody) -> Outcome {
+    fn run(s: &Scene, body: ForceBody, uniform: Option<UniformPair>) -> Outcome {
         let n = s.x.len();
         let (mut force, mut torque) = (vec![[0.0; 3]; n], vec![[0.0; 3]; n]);
         let (mut history, mut wall_history) = (s.history.clone(), s.wall_history.clone());
         let mut wall_force = vec![[0.0; 3]; s.walls.len()];
         let (mut spill, mut scratch) = (vec![], ContactScratch::default());
         let set = StepSettings {
-            uniform: None,
+            uniform,
             walls: &s.walls,
             gravity: [0.0, 0.0, -9.81],
             dt: 1e-6,
@@ -674,7 +784,7 @@ mod tests {
 
     #[test]
     fn lanes_give_bitwise_what_one_contact_at_a_time_gives() {
-        let s = scene();
+        let s = scene(true);
         let expected = one_contact_at_a_time(&s);
         let contacts = expected.2.iter().filter(|h| **h != [0.0; 3]).count();
         let on_walls = expected.3.iter().filter(|h| **h != [0.0; 3]).count();
@@ -690,9 +800,52 @@ mod tests {
                 .flat_map(|v| v.iter().flatten().map(|x| x.to_bits()))
                 .collect()
         };
-        let baseline = run(&s, chunk_forces_body);
+        let baseline = run(
+            &s,
+            |l, st, g, a, b, c, o| chunk_forces_body(l, st, g, a, b, c, o, EachOwn),
+            None,
+        );
         assert_eq!(bits(&baseline), bits(&expected), "baseline lanes");
-        let dispatched = run(&s, chunk_forces);
+        let dispatched = run(&s, chunk_forces, None);
         assert_eq!(bits(&dispatched), bits(&expected), "run-time dispatch");
+    }
+
+    /// Grains all alike take the constant path ([`UniformPair`]): the same forces as each
+    /// pair's own constants, to round-off. Tolerance: only m* and r* are formed otherwise
+    /// (sqrt(m/2) for sqrt(m·m/(m+m)), r/2 for r·r/(r+r)), a few ulps that carry into
+    /// each force once; 1e-12 of the largest entry of each column is a thousand times that.
+    #[test]
+    fn alike_grains_take_the_constant_path_to_round_off() {
+        let s = scene(false);
+        let (r, m) = (s.r[0], s.m[0]);
+        assert!(s.r.iter().all(|&x| x == r) && s.m.iter().all(|&x| x == m));
+        let uniform = UniformPair {
+            sqrt_m_eff: (0.5 * m).sqrt(),
+            r_eff: 0.5 * r,
+            sqrt_m: m.sqrt(),
+            radius: r,
+        };
+        let expected = one_contact_at_a_time(&s);
+        let contacts = expected.2.iter().filter(|h| **h != [0.0; 3]).count();
+        assert!(contacts > 2 * LANES, "{contacts} contacts");
+        let got = run(&s, chunk_forces, Some(uniform));
+        let columns = |o: &Outcome| {
+            [
+                o.0.clone(),
+                o.1.clone(),
+                o.2.clone(),
+                o.3.clone(),
+                o.4.clone(),
+            ]
+        };
+        for (k, (a, b)) in columns(&got).iter().zip(columns(&expected)).enumerate() {
+            let largest = b.iter().flatten().fold(0.0, |m: Real, x| m.max(x.abs()));
+            for (x, y) in a.iter().flatten().zip(b.iter().flatten()) {
+                assert!(
+                    (x - y).abs() <= 1e-12 * largest,
+                    "column {k}: {x} vs {y} (largest {largest})"
+                );
+            }
+        }
     }
 }
