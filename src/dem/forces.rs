@@ -167,12 +167,15 @@ pub struct ContactScratch {
     partner: Vec<u32>,
     /// Grain–grain: the contact's grain i (its row).
     grain: Vec<u32>,
+    /// Grain–grain: x_j − x_i by component, m, as the detection found it (so the laws load
+    /// four contacts' separations at once instead of gathering eight positions).
+    gap: [Vec<Real>; 3],
     /// Grain–wall: the grain.
     wall_grain: Vec<u32>,
     /// Grain–wall: overlap, m.
     wall_overlap: Vec<Real>,
-    /// Grain–wall: unit normal from the grain towards the wall.
-    wall_normal: Vec<Vec3>,
+    /// Grain–wall: unit normal from the grain towards the wall, by component.
+    wall_normal: [Vec<Real>; 3],
 }
 
 /// The writable slices of one chunk [lo, hi).
@@ -292,11 +295,17 @@ fn chunk_forces_body<N: NormalLaw, T: TangentialLaw, S: Sizes>(
     }
 
     // Grain–grain: contacts of the chunk's rows.
-    // The lists sized for every pair of the rows to touch: filled by index, no push.
-    let rows_pairs = start[hi] as usize - hist_off;
+    // The lists sized for every pair of the rows to touch and a last group's padding:
+    // filled by index, no push.
+    let room = start[hi] as usize - hist_off + LANES;
     for list in [&mut sc.pair, &mut sc.partner, &mut sc.grain] {
-        if list.len() < rows_pairs {
-            list.resize(rows_pairs, 0);
+        if list.len() < room {
+            list.resize(room, 0);
+        }
+    }
+    for list in &mut sc.gap {
+        if list.len() < room {
+            list.resize(room, 0.0);
         }
     }
     let mut nc = 0;
@@ -305,28 +314,43 @@ fn chunk_forces_body<N: NormalLaw, T: TangentialLaw, S: Sizes>(
         for k in start[i] as usize..start[i + 1] as usize {
             let j = partner[k] as usize;
             let rs = ri + sizes.radius(&g, j);
-            if norm2(sub(g.position[j], xi)) < rs * rs {
+            let d = sub(g.position[j], xi);
+            if norm2(d) < rs * rs {
                 sc.pair[nc] = k as u32;
                 sc.partner[nc] = j as u32;
                 sc.grain[nc] = i as u32;
+                for (c, list) in sc.gap.iter_mut().enumerate() {
+                    list[nc] = d[c];
+                }
                 nc += 1;
             } else if T::USES_HISTORY {
                 out.history[k - hist_off] = [0.0; 3];
             }
         }
     }
+    // The last group's lanes past the end repeat the last contact (computed, then dropped),
+    // so every group reads four consecutive entries.
+    if nc > 0 {
+        for p in nc..nc.next_multiple_of(LANES) {
+            sc.pair[p] = sc.pair[nc - 1];
+            sc.partner[p] = sc.partner[nc - 1];
+            sc.grain[p] = sc.grain[nc - 1];
+            for list in &mut sc.gap {
+                list[p] = list[nc - 1];
+            }
+        }
+    }
     for base in (0..nc).step_by(LANES) {
-        let slots = lane_slots(base, nc);
-        let k = slots.map(|c| sc.pair[c] as usize);
-        let i = slots.map(|c| sc.grain[c] as usize);
-        let j = slots.map(|c| sc.partner[c] as usize);
+        let index = |list: &[u32]| four(list, base).map(|v| v as usize);
+        let (k, i, j) = (index(&sc.pair), index(&sc.grain), index(&sc.partner));
+        let gap = std::array::from_fn(|c| Lanes(four(&sc.gap[c], base)));
         let slot = k.map(|k| k - hist_off);
         let mut shear = if T::USES_HISTORY {
             gather3(out.history, &slot)
         } else {
             [Lanes::splat(0.0); 3]
         };
-        let (f, arm) = pair_lanes(laws, set, sizes, &g, i, j, &mut shear);
+        let (f, arm) = pair_lanes(laws, set, sizes, &g, i, j, gap, &mut shear);
         // Each contact's force and torque to its two grains, in list order.
         for l in 0..LANES.min(nc - base) {
             if T::USES_HISTORY {
@@ -366,10 +390,13 @@ fn chunk_forces_body<N: NormalLaw, T: TangentialLaw, S: Sizes>(
             near.partition_point(|&i| (i as usize) < lo),
             near.partition_point(|&i| (i as usize) < hi),
         );
-        if sc.wall_grain.len() < b - a {
-            sc.wall_grain.resize(b - a, 0);
-            sc.wall_overlap.resize(b - a, 0.0);
-            sc.wall_normal.resize(b - a, [0.0; 3]);
+        let room = b - a + LANES;
+        if sc.wall_grain.len() < room {
+            sc.wall_grain.resize(room, 0);
+            sc.wall_overlap.resize(room, 0.0);
+            for list in &mut sc.wall_normal {
+                list.resize(room, 0.0);
+            }
         }
         let mut nc = 0;
         for &i in &near[a..b] {
@@ -378,7 +405,9 @@ fn chunk_forces_body<N: NormalLaw, T: TangentialLaw, S: Sizes>(
                 Some((overlap, n)) => {
                     sc.wall_grain[nc] = i as u32;
                     sc.wall_overlap[nc] = overlap;
-                    sc.wall_normal[nc] = n;
+                    for (c, list) in sc.wall_normal.iter_mut().enumerate() {
+                        list[nc] = n[c];
+                    }
                     nc += 1;
                 }
                 None => {
@@ -388,18 +417,26 @@ fn chunk_forces_body<N: NormalLaw, T: TangentialLaw, S: Sizes>(
                 }
             }
         }
+        if nc > 0 {
+            for p in nc..nc.next_multiple_of(LANES) {
+                sc.wall_grain[p] = sc.wall_grain[nc - 1];
+                sc.wall_overlap[p] = sc.wall_overlap[nc - 1];
+                for list in &mut sc.wall_normal {
+                    list[p] = list[nc - 1];
+                }
+            }
+        }
         let mut on_wall = [0.0; 3];
         for base in (0..nc).step_by(LANES) {
-            let slots = lane_slots(base, nc);
-            let i = slots.map(|c| sc.wall_grain[c] as usize);
+            let i = four(&sc.wall_grain, base).map(|v| v as usize);
             let slot = i.map(|i| (i - lo) * nw + w);
             let mut shear = if T::USES_HISTORY {
                 gather3(out.wall_history, &slot)
             } else {
                 [Lanes::splat(0.0); 3]
             };
-            let overlap = Lanes(slots.map(|c| sc.wall_overlap[c]));
-            let n = gather3(&sc.wall_normal, &slots);
+            let overlap = Lanes(four(&sc.wall_overlap, base));
+            let n = std::array::from_fn(|c| Lanes(four(&sc.wall_normal[c], base)));
             let (f, arm) = wall_lanes(laws, w, set, sizes, &g, i, overlap, n, &mut shear);
             for l in 0..LANES.min(nc - base) {
                 if T::USES_HISTORY {
@@ -425,11 +462,13 @@ fn chunk_forces_body<N: NormalLaw, T: TangentialLaw, S: Sizes>(
     }
 }
 
-/// Scratch-list slots of the group starting at `base`: the last group repeats its first
-/// contact in the lanes past the end (computed, then dropped).
+/// Entries base..base + [`LANES`] of a contact list (one load when the compiler can).
 #[inline(always)]
-fn lane_slots(base: usize, len: usize) -> [usize; LANES] {
-    std::array::from_fn(|l| if base + l < len { base + l } else { base })
+fn four<V: Copy>(list: &[V], base: usize) -> [V; LANES] {
+    let group: &[V; LANES] = list[base..base + LANES]
+        .try_into()
+        .expect("a slice of LANES entries");
+    *group
 }
 
 /// Component c of `v[idx[l]]` in lane l.
@@ -455,9 +494,9 @@ fn pair_lanes<N: NormalLaw, T: TangentialLaw, S: Sizes>(
     g: &GrainsIn<'_>,
     i: [usize; LANES],
     j: [usize; LANES],
+    d: [Lanes; 3],
     shear: &mut [Lanes; 3],
 ) -> ([Lanes; 3], [Lanes; 3]) {
-    let d = sub(gather3(g.position, &j), gather3(g.position, &i));
     let (ri, rj, sqrt_m_eff, r_eff) = sizes.pair(g, &i, &j);
     let rs = ri + rj;
     let dist = norm2(d).sqrt();
