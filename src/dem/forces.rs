@@ -197,14 +197,17 @@ pub struct ChunkOut<'a> {
 /// Compute all forces on grains of the chunk (and partner shares). `near_wall`: per wall,
 /// the grains that may touch it (see [`NeighborList`](super::neighbor::NeighborList)).
 ///
-/// Contacts are found first (histories of pairs not touching are cleared), then the contact
-/// laws run over them [`LANES`] at a time ([`Lanes`]: no branches, so the lanes share vector
+/// Contacts are found first (histories of pairs not touching are cleared) and listed by
+/// component (separation, wall normal), padded to whole groups, so the laws read four
+/// contacts with one load per list; the laws run over them [`LANES`] at a time
+/// ([`Lanes`]: no branches, so the lanes share vector
 /// registers and independent contacts overlap instead of queueing on one chain of sqrt and
 /// division latencies), then each contact's force and torque go to its grains in list
 /// order. Grain–grain pairs first, then each wall, then gravity and the fluid force. The
 /// order is fixed, so a run is bitwise reproducible for a given thread count. On x86-64
 /// CPUs with AVX2 the same code is compiled for 4-wide registers and chosen at run time; it
-/// computes the same IEEE operations, so results do not depend on the CPU.
+/// computes the same IEEE operations, so results do not depend on the CPU. Grains all
+/// alike take a build of their own (`Sizes`) whose pair constants are compiled in.
 pub fn chunk_forces<N: NormalLaw, T: TangentialLaw>(
     laws: &Laws<N, T>,
     set: &StepSettings<'_>,
