@@ -56,7 +56,7 @@ pub enum Wall {
     Slip,
 }
 
-/// Cell volumes, face areas and wall conductances of a staggered grid of n[0] × n[1] × n[2]
+/// Cell volumes, face areas and wall conductances of a staggered grid of `n[0] × n[1] × n[2]`
 /// cells (cell (a, b, c) at index a + n0 (b + n1 c); the faces normal to d over the
 /// counts n + e_d, indexed alike).
 #[derive(Debug, Clone)]
