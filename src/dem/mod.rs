@@ -219,27 +219,15 @@ impl NativeDem {
         self.rebuild_pending = false;
         let n = self.state.len();
         let chunks = self.cfg.threads.min((n / MIN_GRAINS_PER_CHUNK).max(1));
-        self.bounds.clear();
-        self.bounds.push(0);
         if chunks > 1 {
             self.grain_cost.clear();
             self.grain_cost
                 .extend(grain_costs(&self.state, &self.nlist, &self.cfg.walls));
-            let total: u64 = self.grain_cost.iter().sum();
-            let mut below = 0u64;
-            for (i, &cost) in self.grain_cost.iter().enumerate() {
-                if self.bounds.len() < chunks
-                    && below * chunks as u64 >= total * self.bounds.len() as u64
-                {
-                    self.bounds.push(i);
-                }
-                below += cost;
-            }
+            cut_by_cost(&self.grain_cost, chunks, &mut self.bounds);
+        } else {
+            self.bounds.clear();
+            self.bounds.extend([0, n]);
         }
-        while self.bounds.len() < chunks {
-            self.bounds.push(n);
-        }
-        self.bounds.push(n);
     }
 
     /// Feed the grains the inlet owes (see [`Feeder::feed`]).
@@ -565,6 +553,25 @@ fn grain_costs<'a>(
     })
 }
 
+/// Bounds of `chunks` contiguous ranges of about equal summed `cost` (chunks + 1 entries):
+/// a range ends at the first grain whose cost before it reaches its share.
+fn cut_by_cost(cost: &[u64], chunks: usize, bounds: &mut Vec<usize>) {
+    let total: u64 = cost.iter().sum();
+    bounds.clear();
+    bounds.push(0);
+    let mut below = 0u64;
+    for (i, &c) in cost.iter().enumerate() {
+        if bounds.len() < chunks && below * chunks as u64 >= total * bounds.len() as u64 {
+            bounds.push(i);
+        }
+        below += c;
+    }
+    while bounds.len() < chunks {
+        bounds.push(cost.len());
+    }
+    bounds.push(cost.len());
+}
+
 impl Phase {
     /// (finishes a step, starts a step)
     fn parts(self) -> (bool, bool) {
@@ -836,5 +843,39 @@ impl DemBackend for NativeDem {
             outflow_mass: f.outflow_mass,
             lost_count: f.lost_count,
         })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::cut_by_cost;
+
+    /// Each range's cost lies within one grain's cost of an equal share, ranges are
+    /// contiguous and cover all grains, and more chunks than grains leave empty ranges.
+    #[test]
+    fn chunks_cut_by_cost_carry_equal_shares() {
+        let mut bounds = Vec::new();
+        // A dense bottom (heavy grains first), as in a settled bed.
+        let cost: Vec<u64> = (0..1000).map(|i| if i < 300 { 30 } else { 10 }).collect();
+        let total: u64 = cost.iter().sum();
+        for chunks in [1, 2, 3, 7] {
+            cut_by_cost(&cost, chunks, &mut bounds);
+            assert_eq!(bounds.len(), chunks + 1);
+            assert_eq!((bounds[0], bounds[chunks]), (0, cost.len()));
+            for c in 0..chunks {
+                let share: u64 = cost[bounds[c]..bounds[c + 1]].iter().sum();
+                let target = total as f64 / chunks as f64;
+                assert!(
+                    (share as f64 - target).abs() <= 30.0,
+                    "{chunks} chunks: chunk {c} carries {share}, target {target}"
+                );
+            }
+        }
+        // 16 000 in all: the cut falls where 8 000 is reached, at grain 267 (30 each before
+        // 300). A cut by grain count would have put 11 000 against 5 000.
+        cut_by_cost(&cost, 2, &mut bounds);
+        assert_eq!(bounds, vec![0, 267, 1000]);
+        cut_by_cost(&[5, 5], 4, &mut bounds);
+        assert_eq!(bounds, vec![0, 1, 2, 2, 2]);
     }
 }
