@@ -194,6 +194,28 @@ pub struct ChunkOut<'a> {
     pub scratch: &'a mut ContactScratch,
 }
 
+/// What every chunk's force loop reads: the laws, the step's settings, the grains and the
+/// neighbour list. One bundle, so the dispatch hops (sizes → CPU → body) pass one value.
+pub struct ForceInputs<'a, N, T> {
+    pub laws: &'a Laws<N, T>,
+    pub set: &'a StepSettings<'a>,
+    pub grains: GrainsIn<'a>,
+    /// Row starts of the half neighbour list: grain i's pairs are `start[i]..start[i + 1]`.
+    pub start: &'a [u32],
+    /// Partner j of each pair.
+    pub partner: &'a [u32],
+    /// Per wall, the grains that may touch it.
+    pub near_wall: &'a [Vec<u32>],
+}
+
+// By hand: `derive` would ask the laws themselves to be `Copy`.
+impl<N, T> Clone for ForceInputs<'_, N, T> {
+    fn clone(&self) -> Self {
+        *self
+    }
+}
+impl<N, T> Copy for ForceInputs<'_, N, T> {}
+
 /// Compute all forces on grains of the chunk (and partner shares). `near_wall`: per wall,
 /// the grains that may touch it (see [`NeighborList`](super::neighbor::NeighborList)).
 ///
@@ -209,71 +231,56 @@ pub struct ChunkOut<'a> {
 /// computes the same IEEE operations, so results do not depend on the CPU. Grains all
 /// alike take a build of their own (`Sizes`) whose pair constants are compiled in.
 pub fn chunk_forces<N: NormalLaw, T: TangentialLaw>(
-    laws: &Laws<N, T>,
-    set: &StepSettings<'_>,
-    g: GrainsIn<'_>,
-    start: &[u32],
-    partner: &[u32],
-    near_wall: &[Vec<u32>],
+    inputs: ForceInputs<'_, N, T>,
     out: ChunkOut<'_>,
 ) {
-    match set.uniform {
-        Some(u) => chunk_forces_sized(laws, set, g, start, partner, near_wall, out, u),
-        None => chunk_forces_sized(laws, set, g, start, partner, near_wall, out, EachOwn),
+    match inputs.set.uniform {
+        Some(u) => chunk_forces_sized(inputs, out, u),
+        None => chunk_forces_sized(inputs, out, EachOwn),
     }
 }
 
 /// [`chunk_forces`] for one kind of [`Sizes`]: the AVX2 build when the CPU has it.
-#[allow(clippy::too_many_arguments)]
 #[inline(always)]
 fn chunk_forces_sized<N: NormalLaw, T: TangentialLaw, S: Sizes>(
-    laws: &Laws<N, T>,
-    set: &StepSettings<'_>,
-    g: GrainsIn<'_>,
-    start: &[u32],
-    partner: &[u32],
-    near_wall: &[Vec<u32>],
+    inputs: ForceInputs<'_, N, T>,
     out: ChunkOut<'_>,
     sizes: S,
 ) {
     #[cfg(target_arch = "x86_64")]
     if std::arch::is_x86_feature_detected!("avx2") {
         // SAFETY: the CPU has AVX2 (checked just above).
-        unsafe { chunk_forces_avx2(laws, set, g, start, partner, near_wall, out, sizes) };
+        unsafe { chunk_forces_avx2(inputs, out, sizes) };
         return;
     }
-    chunk_forces_body(laws, set, g, start, partner, near_wall, out, sizes);
+    chunk_forces_body(inputs, out, sizes);
 }
 
 /// [`chunk_forces_body`] compiled for AVX2 (no FMA: the same roundings as the baseline).
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
-#[allow(clippy::too_many_arguments)]
 unsafe fn chunk_forces_avx2<N: NormalLaw, T: TangentialLaw, S: Sizes>(
-    laws: &Laws<N, T>,
-    set: &StepSettings<'_>,
-    g: GrainsIn<'_>,
-    start: &[u32],
-    partner: &[u32],
-    near_wall: &[Vec<u32>],
+    inputs: ForceInputs<'_, N, T>,
     out: ChunkOut<'_>,
     sizes: S,
 ) {
-    chunk_forces_body(laws, set, g, start, partner, near_wall, out, sizes);
+    chunk_forces_body(inputs, out, sizes);
 }
 
-#[allow(clippy::too_many_arguments)]
 #[inline(always)]
 fn chunk_forces_body<N: NormalLaw, T: TangentialLaw, S: Sizes>(
-    laws: &Laws<N, T>,
-    set: &StepSettings<'_>,
-    g: GrainsIn<'_>,
-    start: &[u32],
-    partner: &[u32],
-    near_wall: &[Vec<u32>],
+    inputs: ForceInputs<'_, N, T>,
     out: ChunkOut<'_>,
     sizes: S,
 ) {
+    let ForceInputs {
+        set,
+        grains: g,
+        start,
+        partner,
+        near_wall,
+        ..
+    } = inputs;
     let lo = out.lo;
     let hi = lo + out.force.len();
     // Every column cut to one length: a lane's index is then checked once, not per column.
@@ -285,6 +292,10 @@ fn chunk_forces_body<N: NormalLaw, T: TangentialLaw, S: Sizes>(
         radius: &g.radius[..n],
         mass: &g.mass[..n],
         external_force: &g.external_force[..n],
+    };
+    let inputs = ForceInputs {
+        grains: g,
+        ..inputs
     };
     let hist_off = start[lo] as usize;
     let sc = out.scratch;
@@ -353,7 +364,7 @@ fn chunk_forces_body<N: NormalLaw, T: TangentialLaw, S: Sizes>(
         } else {
             [Lanes::splat(0.0); 3]
         };
-        let (f, arm) = pair_lanes(laws, set, sizes, &g, i, j, gap, &mut shear);
+        let (f, arm) = pair_lanes(&inputs, sizes, i, j, gap, &mut shear);
         // Each contact's force and torque to its two grains, in list order.
         for l in 0..LANES.min(nc - base) {
             if T::USES_HISTORY {
@@ -440,7 +451,7 @@ fn chunk_forces_body<N: NormalLaw, T: TangentialLaw, S: Sizes>(
             };
             let overlap = Lanes(four(&sc.wall_overlap, base));
             let n = std::array::from_fn(|c| Lanes(four(&sc.wall_normal[c], base)));
-            let (f, arm) = wall_lanes(laws, w, set, sizes, &g, i, overlap, n, &mut shear);
+            let (f, arm) = wall_lanes(&inputs, w, sizes, i, overlap, n, &mut shear);
             for l in 0..LANES.min(nc - base) {
                 if T::USES_HISTORY {
                     out.wall_history[slot[l]] = lane(shear, l);
@@ -489,17 +500,15 @@ fn lane(v: [Lanes; 3], l: usize) -> Vec3 {
 /// The grain–grain laws on `LANES` contacts (i[l], j[l]) in contact; returns the force on
 /// each i and n × F_t, and updates the contacts' `shear` histories.
 #[inline(always)]
-#[allow(clippy::too_many_arguments)]
 fn pair_lanes<N: NormalLaw, T: TangentialLaw, S: Sizes>(
-    laws: &Laws<N, T>,
-    set: &StepSettings<'_>,
+    inputs: &ForceInputs<'_, N, T>,
     sizes: S,
-    g: &GrainsIn<'_>,
     i: [usize; LANES],
     j: [usize; LANES],
     d: [Lanes; 3],
     shear: &mut [Lanes; 3],
 ) -> ([Lanes; 3], [Lanes; 3]) {
+    let (laws, set, g) = (inputs.laws, inputs.set, &inputs.grains);
     let (ri, rj, sqrt_m_eff, r_eff) = sizes.pair(g, &i, &j);
     let rs = ri + rj;
     let dist = norm2(d).sqrt();
@@ -527,19 +536,17 @@ fn pair_lanes<N: NormalLaw, T: TangentialLaw, S: Sizes>(
 
 /// The grain–wall laws of wall `w` on `LANES` grains `i` touching it with `overlap` along
 /// `n`; returns the force on each grain and n × F_t, and updates their `shear` histories.
-#[allow(clippy::too_many_arguments)]
 #[inline(always)]
 fn wall_lanes<N: NormalLaw, T: TangentialLaw, S: Sizes>(
-    laws: &Laws<N, T>,
+    inputs: &ForceInputs<'_, N, T>,
     w: usize,
-    set: &StepSettings<'_>,
     sizes: S,
-    g: &GrainsIn<'_>,
     i: [usize; LANES],
     overlap: Lanes,
     n: [Lanes; 3],
     shear: &mut [Lanes; 3],
 ) -> ([Lanes; 3], [Lanes; 3]) {
+    let (laws, set, g) = (inputs.laws, inputs.set, &inputs.grains);
     let (ri, sqrt_m) = sizes.wall(g, &i);
     let mut vrel = gather3(g.velocity, &i);
     if set.rotation {
@@ -691,15 +698,7 @@ mod tests {
     /// Forces, torques, histories and wall forces of one chunk over all grains, through
     /// `body` (the run-time dispatch, or one compiled variant).
     type Outcome = (Vec<Vec3>, Vec<Vec3>, Vec<Vec3>, Vec<Vec3>, Vec<Vec3>);
-    type ForceBody = fn(
-        &Laws<Hertz, History>,
-        &StepSettings<'_>,
-        GrainsIn<'_>,
-        &[u32],
-        &[u32],
-        &[Vec<u32>],
-        ChunkOut<'_>,
-    );
+    type ForceBody = fn(ForceInputs<'_, Hertz, History>, ChunkOut<'_>);
     fn run(s: &Scene, body: ForceBody, uniform: Option<UniformPair>) -> Outcome {
         let n = s.x.len();
         let (mut force, mut torque) = (vec![[0.0; 3]; n], vec![[0.0; 3]; n]);
@@ -733,7 +732,15 @@ mod tests {
         };
         // Every grain is near every wall: the near lists only skip grains that cannot touch.
         let near = vec![(0..n as u32).collect::<Vec<_>>(); s.walls.len()];
-        body(&s.laws, &set, g, &s.start, &s.partner, &near, out);
+        let inputs = ForceInputs {
+            laws: &s.laws,
+            set: &set,
+            grains: g,
+            start: &s.start,
+            partner: &s.partner,
+            near_wall: &near,
+        };
+        body(inputs, out);
         assert!(spill.is_empty(), "one chunk holds every partner");
         (force, torque, history, wall_history, wall_force)
     }
@@ -844,7 +851,7 @@ mod tests {
         };
         let baseline = run(
             &s,
-            |l, st, g, a, b, c, o| chunk_forces_body(l, st, g, a, b, c, o, EachOwn),
+            |inputs, out| chunk_forces_body(inputs, out, EachOwn),
             None,
         );
         assert_eq!(bits(&baseline), bits(&expected), "baseline lanes");

@@ -28,7 +28,8 @@ use plugflow_coupling::{
 
 use self::contact::{NormalLaw, TangentialLaw};
 use self::forces::{
-    chunk_forces, ChunkOut, ContactScratch, GrainsIn, Laws, Spill, StepSettings, UniformPair,
+    chunk_forces, ChunkOut, ContactScratch, ForceInputs, GrainsIn, Laws, Spill, StepSettings,
+    UniformPair,
 };
 use self::inlet::{draw_radius, leave_verdict, Feeder, Leave};
 use self::integrate::{integrate_chunk, ChunkColumns, ChunkVerdict, PassKind, BLOWUP_SPEED};
@@ -641,7 +642,15 @@ impl ForceJob<'_> {
             mass: &s.mass,
             external_force: &s.external_force,
         };
-        let (start, partner, near_wall) = (&nl.start, &nl.partner, &nl.near_wall);
+        let (start, partner) = (&nl.start[..], &nl.partner[..]);
+        let inputs = ForceInputs {
+            laws,
+            set: &set,
+            grains: g,
+            start,
+            partner,
+            near_wall: &nl.near_wall,
+        };
         let bounds = self.bounds;
         let active = bounds.len() - 1;
         team.run(active, &|c| {
@@ -664,7 +673,7 @@ impl ForceJob<'_> {
                     scratch: &mut scratch.range(c, c + 1)[0],
                 }
             };
-            chunk_forces(laws, &set, g, start, partner, near_wall, out);
+            chunk_forces(inputs, out);
         });
         // Partner shares across chunk boundaries wait in the spill lists: the integration
         // pass that follows adds them, each chunk its own grains' in parallel. Wall forces
