@@ -12,6 +12,7 @@ use crate::gas::{carman_kozeny, DarcyGas, DarcyParams, Scheme, SimpleTubeGas, So
 use crate::scene::{GasScheme, GasSolverPath, Scene, SceneError};
 use crate::Real;
 use plugflow_coupling::drag::{DiFelice, ErgunWenYu};
+use std::sync::Arc;
 
 /// JSON of a check for the summary.
 pub fn check_json(c: &CouplingCheck) -> Value {
@@ -92,7 +93,7 @@ pub fn coupling_from_scene(scene: &Scene, dem: &DemConfig) -> Result<Option<Coup
                 .density
                 .map(|d| d.si)
                 .expect("checked: simple has a density");
-            let gas = SimpleTubeGas::new(
+            let mut gas = SimpleTubeGas::new(
                 grid.clone(),
                 rho,
                 g.viscosity.si,
@@ -101,18 +102,28 @@ pub fn coupling_from_scene(scene: &Scene, dem: &DemConfig) -> Result<Option<Coup
                 g.porosity_min.0,
                 (g.equation_of_state.as_deref() == Some("ideal_gas")).then_some(g.pressure.si),
             );
-            let drag: Box<dyn plugflow_coupling::DragLaw> =
+            let voidage_factor = f
+                .coupling
+                .as_ref()
+                .and_then(|c| c.voidage_factor)
+                .map_or(1.0, |c| c.0);
+            // One law for both sides: the grains' drag and the gas's interphase term.
+            let drag: Arc<dyn plugflow_coupling::DragLaw> =
                 match f.coupling.as_ref().map_or("", |c| c.drag.as_str()) {
-                    "di_felice" => Box::new(DiFelice {
+                    "di_felice" => Arc::new(DiFelice {
                         viscosity: g.viscosity.si,
                     }),
-                    _ => Box::new(ErgunWenYu {
+                    _ => Arc::new(ErgunWenYu {
                         viscosity: g.viscosity.si,
+                        voidage_factor,
                     }),
                 };
+            gas.set_drag_law(drag.clone())
+                .map_err(|e| SceneError::field("coupling.drag", e))?;
             // Drag relaxation of a grain in a dense bed under the viscous Ergun term:
-            // τ = m / (V β/(1−ε)) = ρ_s ε d² / (150 (1 − ε) μ) at ε = 0.4.
-            let phi = g.porosity_min.0.max(0.4);
+            // τ = m / (V β/(1−ε)) = ρ_s ε d² / (150 (1 − ε) μ) at ε = 0.4, the voidage the
+            // drag sees (C_V ε, seed 004 eq. 11).
+            let phi = voidage_factor * g.porosity_min.0.max(0.4);
             let tau = dem.density * phi * d_mean * d_mean / (150.0 * (1.0 - phi) * g.viscosity.si);
             let smallest = grid.smallest_open_volume();
             let grain = 4.0 / 3.0 * std::f64::consts::PI * dem.radius_min.powi(3);
@@ -136,7 +147,7 @@ pub fn coupling_from_scene(scene: &Scene, dem: &DemConfig) -> Result<Option<Coup
             }
             return Ok(Some(Coupler::new(
                 Box::new(gas),
-                drag,
+                Box::new(drag),
                 substeps,
                 dem.dt,
                 checks,

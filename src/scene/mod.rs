@@ -777,6 +777,27 @@ fn check_gas(f: &SceneFile) -> Result<(), SceneError> {
                 return Err(field_err("coupling.interval", "must be positive"));
             }
         }
+        if let Some(cv) = c.voidage_factor {
+            if drag != "ergun_wen_yu" {
+                return Err(field_err(
+                    "coupling.voidage_factor",
+                    format!(
+                        "seed 004 eq. 11 scales the voidage of the ergun_wen_yu drag; \
+                         the `{drag}` drag does not take it"
+                    ),
+                ));
+            }
+            if !(cv.0 > 0.0 && cv.0 <= 1.0) {
+                return Err(field_err(
+                    "coupling.voidage_factor",
+                    format!(
+                        "must lie in (0, 1] (it brings a 2D model's larger voidage down \
+                         to the bed's), got {}",
+                        cv.0
+                    ),
+                ));
+            }
+        }
     }
     Ok(())
 }

@@ -143,6 +143,10 @@ pub struct CouplingSpec {
     /// (seed 004 eqs. 12–13) or `di_felice` (with the `simple` gas). Default `darcy`.
     #[serde(default = "default_drag")]
     pub drag: String,
+    /// C_V of seed 004 eq. 11, in (0, 1]: the `ergun_wen_yu` drag sees the voidage C_V ε, for
+    /// a two-dimensional model whose cells, one grain thick, hold more void than the bed it
+    /// stands for. Only with `ergun_wen_yu`. Default 1 (the voidage as it is).
+    pub voidage_factor: Option<Finite>,
 }
 
 fn default_drag() -> String {

@@ -8,7 +8,7 @@
 //! with w = u − v the interstitial slip (ε w the superficial one), plus the pressure
 //! gradient force −V_p ∇p as for `ergun_wen_yu`.
 
-use super::{DragLaw, GrainInFluid};
+use super::{slip_force, DragLaw, GrainInFluid};
 use crate::{Real, Vec3};
 
 /// The Di Felice drag law with the gas's viscosity.
@@ -24,26 +24,25 @@ impl DragLaw for DiFelice {
     }
 
     fn force(&self, g: &GrainInFluid) -> Vec3 {
-        let (w, speed) = g.slip();
-        let (eps, d, rho) = (g.porosity, g.diameter, g.gas_density);
-        let re = eps * rho * d * speed / self.viscosity;
-        let gp = g.pressure_gradient;
-        let buoyancy = [-g.volume * gp[0], -g.volume * gp[1], -g.volume * gp[2]];
+        slip_force(g, |eps, w, d, rho| self.coefficient(eps, w, d, rho))
+    }
+
+    fn slip_coefficient(&self, eps: Real, w: Real, d: Real, rho: Real) -> Option<Real> {
+        Some(self.coefficient(eps, w, d, rho))
+    }
+}
+
+impl DiFelice {
+    /// β/(1 − ε) = F / (V_p w) = ¾ C_D ρ ε² |w| ε^(−χ) / d, kg/(m³ s).
+    fn coefficient(&self, eps: Real, w: Real, d: Real, rho: Real) -> Real {
+        let re = eps * rho * d * w / self.viscosity;
         if re <= 0.0 {
-            return buoyancy;
+            // Stokes limit: C_D |w| → 4.8² μ/(ε ρ d), χ → 3.7.
+            return 0.75 * 4.8 * 4.8 * self.viscosity * eps.powf(1.0 - 3.7) / (d * d);
         }
         let cd = (0.63 + 4.8 / re.sqrt()).powi(2);
         let chi = 3.7 - 0.65 * (-(1.5 - re.log10()).powi(2) / 2.0).exp();
-        let s = 0.5 * cd * rho * std::f64::consts::PI * d * d / 4.0
-            * eps
-            * eps
-            * speed
-            * eps.powf(-chi);
-        [
-            s * w[0] + buoyancy[0],
-            s * w[1] + buoyancy[1],
-            s * w[2] + buoyancy[2],
-        ]
+        0.75 * cd * rho * eps * eps * w * eps.powf(-chi) / d
     }
 }
 

@@ -14,8 +14,13 @@
 //! Seed 004 prints eq. 12 per grain as ½ π R² ρ C_D |w| w with C_D = (200 (1 − ε)/Re + 7/3)/ε,
 //! which is this β divided by ε: with its −ε∇p momentum equation (eq. 10) a fixed bed would
 //! carry the Ergun drop divided by ε, so we keep Gidaspow's form, which the seed cites.
+//!
+//! Seed 004 eq. 11: a two-dimensional model (cells one grain thick) sees a larger voidage than
+//! the three-dimensional bed it stands for, so the drag takes ε' = C_V ε in place of ε, in the
+//! switch, the coefficient and Re alike; C_V compares the model's voidage with the
+//! experiment's. C_V = 1 (the default) is the law as written above.
 
-use super::{DragLaw, GrainInFluid};
+use super::{slip_force, DragLaw, GrainInFluid};
 use crate::{Real, Vec3};
 
 /// Porosity where Ergun hands over to Wen–Yu.
@@ -56,6 +61,23 @@ pub fn gidaspow_beta(eps: Real, w: Real, d: Real, rho: Real, mu: Real) -> Real {
 pub struct ErgunWenYu {
     /// Gas viscosity μ, Pa·s.
     pub viscosity: Real,
+    /// C_V of seed 004 eq. 11, in (0, 1]: the drag sees the voidage C_V ε (1: as it is).
+    pub voidage_factor: Real,
+}
+
+impl ErgunWenYu {
+    /// The law as written (C_V = 1).
+    pub fn new(viscosity: Real) -> Self {
+        Self {
+            viscosity,
+            voidage_factor: 1.0,
+        }
+    }
+
+    /// β/(1 − ε) at the voidage C_V ε: finite for a lone grain (ε = 1).
+    fn coefficient(&self, eps: Real, w: Real, d: Real, rho: Real) -> Real {
+        gidaspow_beta_per_solid(self.voidage_factor * eps, w, d, rho, self.viscosity)
+    }
 }
 
 impl DragLaw for ErgunWenYu {
@@ -64,16 +86,11 @@ impl DragLaw for ErgunWenYu {
     }
 
     fn force(&self, g: &GrainInFluid) -> Vec3 {
-        let (w, speed) = g.slip();
-        // V_p β/(1 − ε), finite for a lone grain (ε = 1).
-        let s = g.volume
-            * gidaspow_beta_per_solid(g.porosity, speed, g.diameter, g.gas_density, self.viscosity);
-        let gp = g.pressure_gradient;
-        [
-            s * w[0] - g.volume * gp[0],
-            s * w[1] - g.volume * gp[1],
-            s * w[2] - g.volume * gp[2],
-        ]
+        slip_force(g, |eps, w, d, rho| self.coefficient(eps, w, d, rho))
+    }
+
+    fn slip_coefficient(&self, eps: Real, w: Real, d: Real, rho: Real) -> Option<Real> {
+        Some(self.coefficient(eps, w, d, rho))
     }
 }
 
@@ -85,7 +102,7 @@ mod tests {
     #[test]
     fn wen_yu_tends_to_the_single_sphere_drag() {
         let (d, rho, mu) = (1e-3, 1.2, 1.8e-5);
-        let law = ErgunWenYu { viscosity: mu };
+        let law = ErgunWenYu::new(mu);
         let w = 0.5;
         let eps = 1.0;
         let g = GrainInFluid {
@@ -114,5 +131,37 @@ mod tests {
                 + 1.75 * rho * (1.0 - eps) * big_u * big_u / (eps.powi(3) * d);
             assert!((dpdx / ergun - 1.0).abs() < 1e-12);
         }
+    }
+
+    /// Eq. 11: with C_V the law is the plain law at the voidage C_V ε, in both branches
+    /// (ε = 0.5 → 0.4 stays Ergun; ε = 0.95 → 0.76 moves from Wen–Yu to Ergun), and the
+    /// grain's force and the gas's coefficient are one number (bitwise: the same function).
+    #[test]
+    fn voidage_factor_is_the_law_at_the_scaled_voidage() {
+        let (d, rho, mu) = (3e-3, 1.2, 1.81e-5);
+        let scaled = ErgunWenYu {
+            viscosity: mu,
+            voidage_factor: 0.8,
+        };
+        let plain = ErgunWenYu::new(mu);
+        for (eps, w) in [(0.5, 0.7), (0.95, 2.0)] {
+            let got = scaled.slip_coefficient(eps, w, d, rho).unwrap();
+            let want = plain.slip_coefficient(0.8 * eps, w, d, rho).unwrap();
+            assert_eq!(got, want);
+            let g = GrainInFluid {
+                volume: std::f64::consts::PI / 6.0 * d * d * d,
+                diameter: d,
+                velocity: [0.0; 3],
+                porosity: eps,
+                pressure_gradient: [0.0; 3],
+                gas_velocity: [w, 0.0, 0.0],
+                gas_density: rho,
+            };
+            assert_eq!(scaled.force(&g)[0], g.volume * got * w);
+        }
+        // Denser voidage, more drag: C_V < 1 only ever raises it.
+        assert!(
+            scaled.slip_coefficient(0.5, 0.7, d, rho) > plain.slip_coefficient(0.5, 0.7, d, rho)
+        );
     }
 }

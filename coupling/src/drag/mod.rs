@@ -50,4 +50,50 @@ pub trait DragLaw: Send + Sync {
     fn name(&self) -> &'static str;
     /// Force of the gas on the grain, N.
     fn force(&self, grain: &GrainInFluid) -> Vec3;
+    /// For a law of the slip w = u − v: its coefficient β/(1 − ε), the drag per unit of slip
+    /// and per volume of solid, kg/(m³ s), at `porosity` ε, slip speed |w| (m/s), grain
+    /// `diameter` (m) and `gas_density` (kg/m³), so that the grain feels V_p β/(1 − ε) w.
+    /// A gas that carries its own momentum (SIMPLE) takes −β w per volume of mixture from this
+    /// same function, so what the grains gain the gas loses. None: not a law of the slip (the
+    /// d'Arcy volume force).
+    fn slip_coefficient(
+        &self,
+        porosity: Real,
+        slip_speed: Real,
+        diameter: Real,
+        gas_density: Real,
+    ) -> Option<Real> {
+        let _ = (porosity, slip_speed, diameter, gas_density);
+        None
+    }
+}
+
+/// One law shared by the grains' side and a gas that carries its own momentum.
+impl<L: DragLaw + ?Sized> DragLaw for std::sync::Arc<L> {
+    fn name(&self) -> &'static str {
+        (**self).name()
+    }
+    fn force(&self, grain: &GrainInFluid) -> Vec3 {
+        (**self).force(grain)
+    }
+    fn slip_coefficient(&self, eps: Real, w: Real, d: Real, rho: Real) -> Option<Real> {
+        (**self).slip_coefficient(eps, w, d, rho)
+    }
+}
+
+/// The force of a law of the slip on a grain: V_p β/(1 − ε) w − V_p ∇p (the drag and the
+/// pressure gradient the grain sits in, its share of the −(1 − ε)∇p the gas momentum's −ε∇p
+/// leaves to the solids). `coefficient`: the law's [`DragLaw::slip_coefficient`].
+pub(crate) fn slip_force(
+    g: &GrainInFluid,
+    coefficient: impl Fn(Real, Real, Real, Real) -> Real,
+) -> Vec3 {
+    let (w, speed) = g.slip();
+    let s = g.volume * coefficient(g.porosity, speed, g.diameter, g.gas_density);
+    let gp = g.pressure_gradient;
+    [
+        s * w[0] - g.volume * gp[0],
+        s * w[1] - g.volume * gp[1],
+        s * w[2] - g.volume * gp[2],
+    ]
 }
