@@ -58,15 +58,7 @@ mod tests {
     fn matches_a_case_worked_by_hand() {
         let law = DiFelice { viscosity: 1.8e-5 };
         let d = 1e-3;
-        let g = GrainInFluid {
-            volume: std::f64::consts::PI / 6.0 * d * d * d,
-            diameter: d,
-            velocity: [0.0; 3],
-            porosity: 0.5,
-            pressure_gradient: [0.0; 3],
-            gas_velocity: [0.5, 0.0, 0.0],
-            gas_density: 1.2,
-        };
+        let g = crate::drag::grain_at_rest_in_stream(d, 0.5, 0.5, 1.2);
         let f = law.force(&g)[0];
         assert!((f / 8.0911e-7 - 1.0).abs() < 1e-4, "{f}");
     }

@@ -105,15 +105,7 @@ mod tests {
         let law = ErgunWenYu::new(mu);
         let w = 0.5;
         let eps = 1.0;
-        let g = GrainInFluid {
-            volume: std::f64::consts::PI / 6.0 * d * d * d,
-            diameter: d,
-            velocity: [0.0; 3],
-            porosity: eps,
-            pressure_gradient: [0.0; 3],
-            gas_velocity: [w, 0.0, 0.0],
-            gas_density: rho,
-        };
+        let g = crate::drag::grain_at_rest_in_stream(d, eps, w, rho);
         let f = law.force(&g)[0];
         let re = rho * d * w / mu;
         let single = 0.5 * schiller_naumann(re) * rho * std::f64::consts::PI * d * d / 4.0 * w * w;
@@ -148,15 +140,7 @@ mod tests {
             let got = scaled.slip_coefficient(eps, w, d, rho).unwrap();
             let want = plain.slip_coefficient(0.8 * eps, w, d, rho).unwrap();
             assert_eq!(got, want);
-            let g = GrainInFluid {
-                volume: std::f64::consts::PI / 6.0 * d * d * d,
-                diameter: d,
-                velocity: [0.0; 3],
-                porosity: eps,
-                pressure_gradient: [0.0; 3],
-                gas_velocity: [w, 0.0, 0.0],
-                gas_density: rho,
-            };
+            let g = crate::drag::grain_at_rest_in_stream(d, eps, w, rho);
             assert_eq!(scaled.force(&g)[0], g.volume * got * w);
         }
         // Denser voidage, more drag: C_V < 1 only ever raises it.

@@ -44,6 +44,21 @@ impl GrainInFluid {
     }
 }
 
+/// A grain of diameter `d` at rest at porosity `eps` in gas of density `rho` streaming at `w`
+/// along x, no pressure gradient: the laws' tests' common case.
+#[cfg(test)]
+pub(crate) fn grain_at_rest_in_stream(d: Real, eps: Real, w: Real, rho: Real) -> GrainInFluid {
+    GrainInFluid {
+        volume: std::f64::consts::PI / 6.0 * d * d * d,
+        diameter: d,
+        velocity: [0.0; 3],
+        porosity: eps,
+        pressure_gradient: [0.0; 3],
+        gas_velocity: [w, 0.0, 0.0],
+        gas_density: rho,
+    }
+}
+
 /// A drag law.
 pub trait DragLaw: Send + Sync {
     /// Name as the scene writes it.
