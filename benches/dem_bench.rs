@@ -11,7 +11,7 @@ use std::path::Path;
 use std::process::Command;
 use std::time::Instant;
 
-use plugflow::dem::{DemConfig, NativeDem};
+use plugflow::dem::NativeDem;
 use plugflow::scene::Scene;
 use plugflow_coupling::abi::AbiBackend;
 use plugflow_coupling::{DemBackend, NewParticle};
@@ -40,7 +40,7 @@ fn main() {
     std::fs::create_dir_all(&work).unwrap();
 
     // 1. Settle the bed once with the built-in DEM.
-    let mut dem = NativeDem::new(DemConfig::from_scene(&scene).unwrap()).unwrap();
+    let mut dem = NativeDem::new(plugflow::setup::dem_config(&scene).unwrap()).unwrap();
     let settle_steps = (scene.file.duration.si / dem.time_step()).round() as u64;
     eprintln!(
         "settling {} grains for {settle_steps} steps ...",
@@ -64,7 +64,7 @@ fn main() {
             &["initial.count=0".into(), format!("dem.threads={threads}")],
         )
         .unwrap();
-        let mut d = NativeDem::new(DemConfig::from_scene(&s).unwrap()).unwrap();
+        let mut d = NativeDem::new(plugflow::setup::dem_config(&s).unwrap()).unwrap();
         let grains: Vec<NewParticle> = bed
             .iter()
             .map(|&(x, r)| NewParticle {

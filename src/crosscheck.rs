@@ -7,10 +7,8 @@
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
-use serde_json::Value;
+use crate::summary::{Number, Summary};
 
-use crate::dem::DemConfig;
-use crate::engine::build_backend;
 use crate::output::figures::{self, Curve, Panel};
 use crate::scene::{Scene, SceneError};
 use crate::Real;
@@ -27,22 +25,22 @@ pub enum CrosscheckError {
 }
 
 /// Rows of the report: summary key, what, unit.
-const ROWS: [(&str, &str); 9] = [
-    ("pressure_drop_hpa_per_m", "pressure drop, hPa/m"),
-    ("particles_in_tube_mean", "grains in the tube (mean)"),
-    ("mass_outflow_kg_per_h", "outflow, kg/h"),
+const ROWS: [(Number, &str); 9] = [
+    (Number::PressureDrop, "pressure drop, hPa/m"),
+    (Number::ParticlesInTube, "grains in the tube (mean)"),
+    (Number::MassOutflow, "outflow, kg/h"),
     (
-        "plug_max_granular_velocity_m_s",
+        Number::PlugMaxGranularVelocity,
         "plug velocity (max granular), m/s",
     ),
-    ("plug_velocity_m_s", "plug velocity (tracked), m/s"),
-    ("plug_length_m", "plug length, m"),
-    ("plug_min_porosity", "minimum porosity in plugs"),
-    ("simulated_time_s", "simulated time, s"),
-    ("wall_time_s", "wall time, s"),
+    (Number::PlugVelocity, "plug velocity (tracked), m/s"),
+    (Number::PlugLength, "plug length, m"),
+    (Number::PlugMinPorosity, "minimum porosity in plugs"),
+    (Number::SimulatedTime, "simulated time, s"),
+    (Number::WallTime, "wall time, s"),
 ];
 
-/// Run the scene on every engine; returns the summaries (Null for a run that wrote none).
+/// Run the scene on every engine; returns the summaries (None for a run that wrote none).
 pub fn crosscheck(
     exe: &Path,
     scene_path: &Path,
@@ -50,7 +48,7 @@ pub fn crosscheck(
     set: &[String],
     duration: Option<Real>,
     out_dir: &Path,
-) -> Result<Vec<Value>, CrosscheckError> {
+) -> Result<Vec<Option<Summary>>, CrosscheckError> {
     let io = |p: &Path, e: &dyn std::fmt::Display| CrosscheckError::Io {
         path: p.display().to_string(),
         reason: e.to_string(),
@@ -67,8 +65,7 @@ pub fn crosscheck(
             source,
         };
         let scene = Scene::load(scene_path, &s).map_err(scene_err)?;
-        let cfg = DemConfig::from_scene(&scene).map_err(scene_err)?;
-        drop(build_backend(&scene, &cfg).map_err(scene_err)?);
+        drop(crate::setup::build(&scene).map_err(scene_err)?);
         runs.push((e.clone(), s));
     }
     std::fs::create_dir_all(out_dir).map_err(|e| io(out_dir, &e))?;
@@ -89,10 +86,7 @@ pub fn crosscheck(
         }
         eprintln!("crosscheck: running on {engine} ...");
         let status = cmd.status().map_err(|e| io(exe, &e))?;
-        let summary: Value = std::fs::read_to_string(dir.join("summary.json"))
-            .ok()
-            .and_then(|t| serde_json::from_str(&t).ok())
-            .unwrap_or(Value::Null);
+        let summary = Summary::read(&dir.join("summary.json")).ok();
         eprintln!("crosscheck: {engine}: exit {}", status.code().unwrap_or(-1));
         summaries.push(summary);
     }
@@ -104,7 +98,7 @@ fn write_report(
     dir: &Path,
     scene_path: &Path,
     engines: &[String],
-    s: &[Value],
+    s: &[Option<Summary>],
 ) -> Result<(), String> {
     let mut md = format!(
         "# Crosscheck of `{}`\n\n| quantity | {} | spread |\n| --- |{} --- |\n",
@@ -115,16 +109,19 @@ fn write_report(
     md.push_str(&format!(
         "| engine version | {} | |\n| status | {} | |\n",
         s.iter()
-            .map(|v| v["engine_version"].as_str().unwrap_or("—").to_string())
+            .map(|v| v.as_ref().map_or("—".into(), |v| v.engine_version.clone()))
             .collect::<Vec<_>>()
             .join(" | "),
         s.iter()
-            .map(|v| v["status"].as_str().unwrap_or("no summary").to_string())
+            .map(|v| v.as_ref().map_or("no summary".into(), |v| v.status.clone()))
             .collect::<Vec<_>>()
             .join(" | ")
     ));
     for (key, what) in ROWS {
-        let vals: Vec<Option<f64>> = s.iter().map(|v| v[key].as_f64()).collect();
+        let vals: Vec<Option<f64>> = s
+            .iter()
+            .map(|v| v.as_ref().and_then(|v| key.of(v)))
+            .collect();
         let cells: Vec<String> = vals
             .iter()
             .map(|v| v.map_or("—".into(), |x| format!("{x:.4}")))
@@ -156,8 +153,8 @@ fn write_report(
             .iter()
             .enumerate()
             .filter_map(|(j, (key, _))| {
-                let base = s.first()?[*key].as_f64()?;
-                let v = s[k][*key].as_f64()?;
+                let base = key.of(s.first()?.as_ref()?)?;
+                let v = key.of(s[k].as_ref()?)?;
                 (base != 0.0).then_some((j as Real, v / base))
             })
             .collect();
@@ -176,7 +173,10 @@ fn write_report(
                 engines.first().map_or("", |e| e.as_str()),
                 ROWS.iter()
                     .enumerate()
-                    .map(|(j, (k, _))| format!("{j} {}", k.split('_').next().unwrap_or(k)))
+                    .map(|(j, (k, _))| {
+                        let k = k.key();
+                        format!("{j} {}", k.split('_').next().unwrap_or(k))
+                    })
                     .collect::<Vec<_>>()
                     .join(", ")
             ),

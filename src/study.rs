@@ -14,14 +14,15 @@
 use std::path::Path;
 
 use crate::output::figures::{self, Curve, Panel};
+use crate::summary::Number;
 use crate::sweep::{leading_number, run_variants, SweepError, SweepOptions, VariantRun, Vary};
 use crate::Real;
 
 /// Observables compared when none are named: the run's headline numbers.
-pub const DEFAULT_OBSERVABLES: [&str; 3] = [
-    "pressure_drop_hpa_per_m",
-    "particles_in_tube_mean",
-    "mass_outflow_kg_per_h",
+pub const DEFAULT_OBSERVABLES: [Number; 3] = [
+    Number::PressureDrop,
+    Number::ParticlesInTube,
+    Number::MassOutflow,
 ];
 
 /// How to study.
@@ -29,10 +30,10 @@ pub const DEFAULT_OBSERVABLES: [&str; 3] = [
 pub struct StudyOptions {
     /// How to run the variants (folder, jobs, duration, fixed overrides, threads).
     pub runs: SweepOptions,
-    /// Summary keys to measure errors of.
-    pub observables: Vec<String>,
-    /// Exact values (key, value) that replace the finest variant as reference.
-    pub exact: Vec<(String, Real)>,
+    /// Summary numbers to measure errors of.
+    pub observables: Vec<Number>,
+    /// Exact values (number, value) that replace the finest variant as reference.
+    pub exact: Vec<(Number, Real)>,
     /// Largest acceptable relative error, for naming the cheapest variant that meets it.
     pub target_error: Option<Real>,
 }
@@ -63,7 +64,7 @@ pub struct StudyResult {
     /// Index of the finest variant (the reference where no exact value is given).
     pub finest: usize,
     /// Reference value per observable and where it came from.
-    pub references: Vec<(String, Option<Real>, String)>,
+    pub references: Vec<(Number, Option<Real>, String)>,
     /// Indices of the Pareto-optimal rows (no other row is both faster and more accurate).
     pub pareto: Vec<usize>,
     /// Cheapest row meeting the target error, if asked and found.
@@ -115,14 +116,14 @@ fn finest_variant(varies: &[Vary], runs: &[VariantRun]) -> usize {
 /// Errors, Pareto front and cheapest choice from finished runs (no files).
 pub fn evaluate(varies: &[Vary], runs: &[VariantRun], opts: &StudyOptions) -> StudyResult {
     let finest = finest_variant(varies, runs);
-    let references: Vec<(String, Option<Real>, String)> = opts
+    let references: Vec<(Number, Option<Real>, String)> = opts
         .observables
         .iter()
-        .map(|key| match opts.exact.iter().find(|(k, _)| k == key) {
-            Some((_, v)) => (key.clone(), Some(*v), "exact value (--exact)".to_string()),
+        .map(|&key| match opts.exact.iter().find(|(k, _)| *k == key) {
+            Some((_, v)) => (key, Some(*v), "exact value (--exact)".to_string()),
             None => (
-                key.clone(),
-                runs[finest].summary[key.as_str()].as_f64(),
+                key,
+                runs[finest].summary.as_ref().and_then(|s| key.of(s)),
                 format!("finest variant {finest:03}"),
             ),
         })
@@ -132,11 +133,11 @@ pub fn evaluate(varies: &[Vary], runs: &[VariantRun], opts: &StudyOptions) -> St
         .iter()
         .enumerate()
         .map(|(k, r)| {
-            let s = &r.summary;
+            let s = r.summary.as_ref();
             let errors: Vec<Option<Real>> = references
                 .iter()
                 .map(|(key, reference, _)| {
-                    let x = s[key.as_str()].as_f64()?;
+                    let x = key.of(s?)?;
                     let reference = (*reference)?;
                     Some(if reference != 0.0 {
                         (x - reference).abs() / reference.abs()
@@ -146,21 +147,20 @@ pub fn evaluate(varies: &[Vary], runs: &[VariantRun], opts: &StudyOptions) -> St
                 })
                 .collect();
             let max_error = errors.iter().try_fold(0.0_f64, |m, e| e.map(|e| m.max(e)));
-            let stages = s["stage_times_s"]
-                .as_object()
-                .map(|o| {
-                    o.iter()
-                        .filter_map(|(k, v)| v.as_f64().map(|v| (k.clone(), v)))
+            let stages = s
+                .map(|s| {
+                    s.stage_times_s
+                        .iter()
+                        .map(|(k, v)| (k.clone(), *v))
                         .collect()
                 })
                 .unwrap_or_default();
             StudyRow {
                 settings: r.settings.clone(),
-                status: s["status"]
-                    .as_str()
-                    .map(str::to_string)
+                status: s
+                    .map(|s| s.status.clone())
                     .unwrap_or_else(|| format!("no summary (exit {:?})", r.exit)),
-                wall_time: s["wall_time_s"].as_f64(),
+                wall_time: s.and_then(|s| Number::WallTime.of(s)),
                 stages,
                 errors,
                 max_error,
@@ -240,7 +240,7 @@ pub fn study(
         csv.push_str(&format!("stage_{s}_s,"));
     }
     for o in &opts.observables {
-        csv.push_str(&format!("error_{o},"));
+        csv.push_str(&format!("error_{},", o.key()));
     }
     csv.push_str("max_error,reference,pareto\n");
     let mut md = format!(
@@ -249,13 +249,13 @@ pub fn study(
         result
             .references
             .iter()
-            .map(|(k, v, from)| format!("`{k}` = {} ({from})", fmt(*v)))
+            .map(|(k, v, from)| format!("`{}` = {} ({from})", k.key(), fmt(*v)))
             .collect::<Vec<_>>()
             .join(", "),
         varies.iter().map(|v| v.path.clone()).collect::<Vec<_>>().join(" | "),
         opts.observables
             .iter()
-            .map(|o| format!("error of {o}"))
+            .map(|o| format!("error of {}", o.key()))
             .collect::<Vec<_>>()
             .join(" | "),
         " --- |".repeat(varies.len() + opts.observables.len() + 4)
@@ -383,7 +383,6 @@ pub fn study(
 mod tests {
     use super::*;
     use crate::sweep::parse_vary;
-    use serde_json::json;
 
     fn run(settings: &[(&str, &str)], wall: Real, dp: Real) -> VariantRun {
         VariantRun {
@@ -391,13 +390,12 @@ mod tests {
                 .iter()
                 .map(|(p, x)| (p.to_string(), x.to_string()))
                 .collect(),
-            summary: json!({"status": "completed", "wall_time_s": wall,
-                "pressure_drop_hpa_per_m": dp, "stage_times_s": {"gas": wall / 2.0}}),
+            summary: Some(crate::summary::test_summary("completed", wall, Some(dp))),
             exit: Some(0),
         }
     }
 
-    fn opts(target: Option<Real>, exact: Vec<(String, Real)>) -> StudyOptions {
+    fn opts(target: Option<Real>, exact: Vec<(Number, Real)>) -> StudyOptions {
         StudyOptions {
             runs: SweepOptions {
                 out_dir: std::env::temp_dir(),
@@ -406,7 +404,7 @@ mod tests {
                 set: Vec::new(),
                 threads: 1,
             },
-            observables: vec!["pressure_drop_hpa_per_m".into()],
+            observables: vec![Number::PressureDrop],
             exact,
             target_error: target,
         }
@@ -460,7 +458,7 @@ mod tests {
         let r = evaluate(
             &varies,
             &runs,
-            &opts(Some(0.001), vec![("pressure_drop_hpa_per_m".into(), 40.0)]),
+            &opts(Some(0.001), vec![(Number::PressureDrop, 40.0)]),
         );
         assert!(!r.rows[2].is_reference);
         assert_eq!(r.cheapest, Some(2));

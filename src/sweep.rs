@@ -9,7 +9,7 @@
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};
 
-use serde_json::Value;
+use crate::summary::{Number, Summary};
 
 use crate::output::figures::{self, Curve, Panel};
 use crate::scene::{Scene, SceneError};
@@ -131,8 +131,8 @@ fn set_arg(path: &str, value: &str) -> String {
 pub struct VariantRun {
     /// `(path, value)` of each varied field.
     pub settings: Vec<(String, String)>,
-    /// Its summary.json (Null when the run wrote none).
-    pub summary: Value,
+    /// Its summary.json (None when the run wrote none, or one that does not parse).
+    pub summary: Option<Summary>,
     /// Exit code of its process.
     pub exit: Option<i32>,
 }
@@ -218,12 +218,7 @@ pub fn run_variants(
         .enumerate()
         .map(|(k, settings)| VariantRun {
             settings,
-            summary: std::fs::read_to_string(
-                opts.out_dir.join(format!("{k:03}")).join("summary.json"),
-            )
-            .ok()
-            .and_then(|t| serde_json::from_str(&t).ok())
-            .unwrap_or(Value::Null),
+            summary: Summary::read(&opts.out_dir.join(format!("{k:03}")).join("summary.json")).ok(),
             exit: exit[k],
         })
         .collect())
@@ -235,7 +230,7 @@ pub fn sweep(
     scene_path: &Path,
     varies: &[Vary],
     opts: &SweepOptions,
-) -> Result<Vec<Value>, SweepError> {
+) -> Result<Vec<Option<Summary>>, SweepError> {
     let io = |p: &Path, e: &dyn std::fmt::Display| SweepError::Io {
         path: p.display().to_string(),
         reason: e.to_string(),
@@ -243,16 +238,16 @@ pub fn sweep(
     let runs = run_variants(exe, scene_path, varies, opts)?;
     let variants: Vec<Vec<(String, String)>> = runs.iter().map(|r| r.settings.clone()).collect();
     // Gather.
-    const COLUMNS: [&str; 9] = [
-        "pressure_drop_hpa_per_m",
-        "particles_in_tube_mean",
-        "mass_outflow_kg_per_h",
-        "plug_velocity_m_s",
-        "plug_length_m",
-        "plug_min_porosity",
-        "plug_rate_per_s",
-        "simulated_time_s",
-        "wall_time_s",
+    const COLUMNS: [Number; 9] = [
+        Number::PressureDrop,
+        Number::ParticlesInTube,
+        Number::MassOutflow,
+        Number::PlugVelocity,
+        Number::PlugLength,
+        Number::PlugMinPorosity,
+        Number::PlugRate,
+        Number::SimulatedTime,
+        Number::WallTime,
     ];
     let mut csv = String::new();
     for v in varies {
@@ -260,7 +255,7 @@ pub fn sweep(
         csv.push(',');
     }
     csv.push_str("variant,status,");
-    csv.push_str(&COLUMNS.join(","));
+    csv.push_str(&COLUMNS.map(Number::key).join(","));
     csv.push('\n');
     let mut rows = Vec::new();
     for (k, run) in runs.into_iter().enumerate() {
@@ -268,14 +263,14 @@ pub fn sweep(
         for (_, x) in &variants[k] {
             csv.push_str(&format!("\"{x}\","));
         }
-        let status = summary["status"]
-            .as_str()
-            .map(|s| s.to_string())
+        let status = summary
+            .as_ref()
+            .map(|s| s.status.clone())
             .unwrap_or_else(|| format!("no summary (exit {:?})", run.exit));
         csv.push_str(&format!("{k:03},\"{}\"", status.replace('"', "'")));
         for c in COLUMNS {
             csv.push(',');
-            if let Some(x) = summary[c].as_f64() {
+            if let Some(x) = summary.as_ref().and_then(|s| c.of(s)) {
                 csv.push_str(&format!("{x}"));
             }
         }
@@ -335,7 +330,7 @@ fn draw_curves(
     scene_path: &Path,
     varies: &[Vary],
     variants: &[Vec<(String, String)>],
-    rows: &[Value],
+    rows: &[Option<Summary>],
 ) -> Result<(), crate::output::OutputError> {
     let Some(first) = varies.first() else {
         return Ok(());
@@ -358,10 +353,10 @@ fn draw_curves(
             let Some(x) = leading_number(&v[0].1) else {
                 continue;
             };
-            if let Some(y) = r["pressure_drop_hpa_per_m"].as_f64() {
+            if let Some(y) = r.as_ref().and_then(|r| Number::PressureDrop.of(r)) {
                 dp.push((x, y));
             }
-            if let Some(y) = r["particles_in_tube_mean"].as_f64() {
+            if let Some(y) = r.as_ref().and_then(|r| Number::ParticlesInTube.of(r)) {
                 n.push((x, y));
             }
         }

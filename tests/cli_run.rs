@@ -8,22 +8,13 @@ use std::path::Path;
 #[test]
 fn run_writes_summary_with_required_keys() {
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));
-    let out = std::env::temp_dir().join(format!("plugflow-cli-{}", std::process::id()));
     let case = root.join("cases/vertical_dry_feed.toml");
-    let (code, text) = plugflow(&[
-        "run",
+    let (code, text, out, s) = common::run_case(
         case.to_str().unwrap(),
-        "--out",
-        out.to_str().unwrap(),
-        "--duration",
-        "0.6",
-        "--set",
-        "output.settling_time=0.4 s",
-        "--quiet",
-    ]);
+        "cli",
+        &["--duration", "0.6", "--set", "output.settling_time=0.4 s"],
+    );
     assert_eq!(code, 0, "{text}");
-    let s: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
     for key in [
         "engine",
         "simulated_time_s",
@@ -83,8 +74,7 @@ fn duration_flag_counts_in_the_scene_checks() {
     let accepted: Vec<&str> = accepted.iter().map(String::as_str).collect();
     let (code, text) = plugflow(&accepted);
     assert_eq!(code, 0, "{text}");
-    let s: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
+    let s: serde_json::Value = common::read_summary(&out);
     assert!(
         (s["simulated_time_s"].as_f64().unwrap() - 0.02).abs() < 1e-9,
         "{s}"
@@ -141,8 +131,7 @@ fn coupled_run_reports_gas_numbers_and_checks() {
         "--quiet",
     ]);
     assert_eq!(code, 0, "{text}");
-    let s: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
+    let s: serde_json::Value = common::read_summary(&out);
     for key in [
         "pressure_drop_hpa_per_m",
         "gas_mass_error_rel",
@@ -266,9 +255,7 @@ fn sweep_runs_every_variant_as_a_direct_run_would() {
         "--quiet",
     ]);
     assert_eq!(code, 0, "{text}");
-    let read = |p: &Path| -> serde_json::Value {
-        serde_json::from_str(&std::fs::read_to_string(p.join("summary.json")).unwrap()).unwrap()
-    };
+    let read = |p: &Path| -> serde_json::Value { common::read_summary(p) };
     let (a, b) = (read(&out.join("001")), read(&direct));
     for key in ["particles_in_tube_mean", "grains_fed", "steps"] {
         assert_eq!(a[key], b[key], "{key}");
@@ -314,9 +301,7 @@ fn native_through_the_abi_runs_a_case_bit_for_bit() {
             "--quiet",
         ]);
         assert_eq!(code, 0, "{text}");
-        let s: serde_json::Value =
-            serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap())
-                .unwrap();
+        let s: serde_json::Value = common::read_summary(&out);
         assert_eq!(s["engine"], "native");
         csv.push((
             std::fs::read_to_string(out.join("porosity_tz.csv")).unwrap(),
@@ -486,8 +471,7 @@ fn interrupt_ends_the_run_with_every_output_written() {
     );
     assert_eq!(o.status.code(), Some(130), "{text}");
     assert!(text.contains("interrupted at t ="), "{text}");
-    let s: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
+    let s: serde_json::Value = common::read_summary(&out);
     let status = s["status"].as_str().unwrap();
     assert!(status.starts_with("interrupted at t ="), "{status}");
     let t = s["simulated_time_s"].as_f64().unwrap();

@@ -3,10 +3,10 @@
 
 mod common;
 
-use plugflow::cosim::coupling_from_scene;
-use plugflow::dem::{DemConfig, NativeDem};
+use plugflow::dem::NativeDem;
 use plugflow::gas::carman_kozeny;
 use plugflow::scene::Scene;
+use plugflow::setup::coupling_from_scene;
 use plugflow_coupling::{Coupler, DemBackend};
 
 const ETA: f64 = 6.73e-5;
@@ -53,7 +53,7 @@ interval = "2e-5 s"
 /// A settled bed (gas off while it settles) and its coupling.
 fn settled(v_s: f64, wall_friction: f64) -> (NativeDem, Coupler) {
     let scene = Scene::parse(&bed_scene(v_s, wall_friction), &[]).unwrap();
-    let cfg = DemConfig::from_scene(&scene).unwrap();
+    let cfg = plugflow::setup::dem_config(&scene).unwrap();
     let mut dem = NativeDem::new(cfg.clone()).unwrap();
     let coupling = coupling_from_scene(&scene, &cfg).unwrap().unwrap();
     let dt = dem.time_step();

@@ -11,9 +11,9 @@ mod common;
 use std::path::{Path, PathBuf};
 use std::sync::Mutex;
 
-use plugflow::cosim::coupling_from_scene;
-use plugflow::dem::{DemConfig, NativeDem};
+use plugflow::dem::NativeDem;
 use plugflow::scene::Scene;
+use plugflow::setup::coupling_from_scene;
 use plugflow_coupling::abi::AbiBackend;
 use plugflow_coupling::{DemBackend, NewParticle};
 
@@ -134,7 +134,7 @@ fn a_single_grain_bounce() {
 
 fn bounce(text: &str, law: &str) {
     let s = scene(text);
-    let mut n = NativeDem::new(DemConfig::from_scene(&s).unwrap()).unwrap();
+    let mut n = NativeDem::new(plugflow::setup::dem_config(&s).unwrap()).unwrap();
     let r = 0.7e-3;
     let chunk = 5;
     let dt = n.time_step();
@@ -265,9 +265,9 @@ fn b_settled_bed() {
         "2e-4 s",
         "[initial]\ncount = 800\nfrom = \"0 m\"\nto = \"0.19 m\"\n",
     ));
-    let cfg = DemConfig::from_scene(&s).unwrap();
+    let cfg = plugflow::setup::dem_config(&s).unwrap();
     let kn = match &cfg.laws {
-        plugflow::dem::config::LawSet::HookeHistory(l) => l.pw_normal.kn,
+        plugflow::dem::config::LawSet::Hooke(t) => t.normal().1.kn,
         _ => unreachable!(),
     };
     let (r, rt) = (0.7e-3, 3.5e-3);
@@ -365,7 +365,7 @@ fn c_frozen_bed_with_gas() {
         "2e-4 s",
         &format!("[initial]\ncount = 400\nfrom = \"0 m\"\nto = \"0.13 m\"\n{gas}"),
     ));
-    let mut n = NativeDem::new(DemConfig::from_scene(&bed).unwrap()).unwrap();
+    let mut n = NativeDem::new(plugflow::setup::dem_config(&bed).unwrap()).unwrap();
     n.advance((0.3 / n.time_step()) as u64).unwrap();
     let empty = scene(&tube("0.14 m", "closed", "history", "2e-4 s", gas));
     let p = n.particles();
@@ -377,7 +377,7 @@ fn c_frozen_bed_with_gas() {
             density: 937.0,
         })
         .collect();
-    let cfg = DemConfig::from_scene(&bed).unwrap();
+    let cfg = plugflow::setup::dem_config(&bed).unwrap();
     // 0.2 s of gas (≫ the diffusion time of the bed) without advancing the grains.
     let solve = |e: &mut dyn DemBackend| {
         let mut g = coupling_from_scene(&bed, &cfg).unwrap().unwrap();
@@ -422,7 +422,7 @@ fn d_vertical_plug_first_second() {
         ],
     )
     .unwrap();
-    let cfg = DemConfig::from_scene(&s).unwrap();
+    let cfg = plugflow::setup::dem_config(&s).unwrap();
     let run = |e: &mut dyn DemBackend| {
         let mut g = coupling_from_scene(&s, &cfg).unwrap().unwrap();
         let exchanges = (1.0 / g.interval).round() as usize;

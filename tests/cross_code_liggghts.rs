@@ -53,8 +53,7 @@ fn e_cli_runs_a_case_on_liggghts() {
         .output()
         .unwrap();
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    let s: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
+    let s: serde_json::Value = common::read_summary(&out);
     assert_eq!(s["engine"], "liggghts");
     assert!(s["engine_version"]
         .as_str()
@@ -91,8 +90,7 @@ fn f_user_liggghts_input() {
         "--quiet",
     ]);
     assert_eq!(code, 0, "{text}");
-    let s: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
+    let s: serde_json::Value = common::read_summary(&out);
     assert_eq!(s["engine"], "liggghts");
     // The input feeds 6.9e-4 kg/s of 1.35e-6 kg beads: ~200 grains in 0.4 s, all in the
     // tube, under a pressure drop from the gas.
@@ -179,8 +177,7 @@ fn g_isolated_engine_death_is_an_error_not_a_crash() {
     let err = String::from_utf8_lossy(&o.stderr);
     assert_eq!(o.status.code(), Some(1), "{err}");
     assert!(err.contains("engine process died"), "{err}");
-    let s: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
+    let s: serde_json::Value = common::read_summary(&out);
     assert!(s["status"].as_str().unwrap().starts_with("failed"), "{s}");
     assert!(s["simulated_time_s"].as_f64().unwrap() > 0.0);
     let f = hdf5::File::open(out.join("run.h5")).unwrap();

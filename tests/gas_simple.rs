@@ -4,9 +4,9 @@
 //! (The solver alone — plane Poiseuille, packed bed against Ergun — is
 //! tested in src/gas/simple.rs.)
 
-use plugflow::cosim::coupling_from_scene;
-use plugflow::dem::{DemConfig, NativeDem};
+use plugflow::dem::NativeDem;
 use plugflow::scene::Scene;
+use plugflow::setup::coupling_from_scene;
 use plugflow_coupling::drag::ergun_wen_yu::schiller_naumann;
 use plugflow_coupling::DemBackend;
 
@@ -56,7 +56,7 @@ drag = "ergun_wen_yu"
 threads = 1
 "#;
     let s = Scene::parse(text, &[]).unwrap_or_else(|e| panic!("{e}"));
-    let cfg = DemConfig::from_scene(&s).unwrap();
+    let cfg = plugflow::setup::dem_config(&s).unwrap();
     let mut e = NativeDem::new(cfg.clone()).unwrap();
     let mut c = coupling_from_scene(&s, &cfg).unwrap().unwrap();
     assert_eq!(c.gas.name(), "simple");
@@ -180,7 +180,7 @@ dt = "1e-5 s"
 "#;
     let grid_set = format!("gas.grid=[{}, {}, {}]", grid[0], grid[1], grid[2]);
     let s = Scene::parse(text, &[grid_set]).unwrap_or_else(|e| panic!("{e}"));
-    let cfg = DemConfig::from_scene(&s).unwrap();
+    let cfg = plugflow::setup::dem_config(&s).unwrap();
     let mut e = NativeDem::new(cfg.clone()).unwrap();
     let mut c = coupling_from_scene(&s, &cfg).unwrap().unwrap();
     // Settle with the gas at rest (the gas still exchanges: the gas the grains displace has

@@ -37,7 +37,7 @@ fn short_coupled_run(out: &Path) -> serde_json::Value {
         duration: Some(0.3),
         progress: false,
     };
-    run(&scene, &opts).unwrap().summary
+    serde_json::to_value(run(&scene, &opts).unwrap().summary).unwrap()
 }
 
 /// Points and ids of a legacy VTK polydata file, read the way the format defines them.

@@ -14,10 +14,10 @@
 
 use std::path::Path;
 
-use plugflow::cosim::coupling_from_scene;
-use plugflow::dem::{DemConfig, NativeDem};
+use plugflow::dem::NativeDem;
 use plugflow::gas::{DarcyGas, DarcyParams, Scheme, SolvePath};
 use plugflow::scene::Scene;
+use plugflow::setup::coupling_from_scene;
 use plugflow_coupling::{deposit, DemBackend, GasSolver, GranularFields, TubeGrid, Verdict};
 
 fn scene(text: &str, set: &[&str]) -> Scene {
@@ -78,7 +78,7 @@ fn mechanical_energy(e: &dyn DemBackend, g: [f64; 3]) -> f64 {
 
 /// Run a gas-free scene for `seconds`, check the energy bound, print the report.
 fn dry_case(name: &str, s: &Scene, seconds: f64) {
-    let cfg = DemConfig::from_scene(s).unwrap();
+    let cfg = plugflow::setup::dem_config(s).unwrap();
     let g = cfg.gravity;
     let frac = cfg.dt / cfg.dt_report.limit;
     let mut e = NativeDem::new(cfg.clone()).unwrap();
@@ -115,7 +115,7 @@ fn dry_case(name: &str, s: &Scene, seconds: f64) {
 #[test]
 fn stiff_contacts_dt_chosen_automatically() {
     let s = scene(BED, &["contact.contact_time=1e-6 s"]);
-    let cfg = DemConfig::from_scene(&s).unwrap();
+    let cfg = plugflow::setup::dem_config(&s).unwrap();
     assert!((cfg.dt - 1e-6 / 50.0).abs() < 1e-12, "dt {}", cfg.dt);
     dry_case("contact stiffness ×1e4", &s, 2e-3);
 }
@@ -135,7 +135,7 @@ fn restitution_and_friction_extremes() {
 
 /// A settled bed's granular fields on the gas grid of `s` (or no grains at all).
 fn frozen_fields(s: &Scene, grains: Option<&[[f64; 3]]>) -> (TubeGrid, GranularFields, f64) {
-    let cfg = DemConfig::from_scene(s).unwrap();
+    let cfg = plugflow::setup::dem_config(s).unwrap();
     let g = s.file.gas.as_ref().unwrap();
     let t = cfg.tube.unwrap();
     let grid = TubeGrid::new(
@@ -332,7 +332,7 @@ fn coupled(
     insert: &[[f64; 3]],
     v_s_max: f64,
 ) -> (Vec<(f64, f64)>, Vec<plugflow_coupling::CouplingCheck>) {
-    let cfg = DemConfig::from_scene(s).unwrap();
+    let cfg = plugflow::setup::dem_config(s).unwrap();
     let mut e = NativeDem::new(cfg.clone()).unwrap();
     if !insert.is_empty() {
         let grains: Vec<plugflow_coupling::NewParticle> = insert
@@ -407,7 +407,7 @@ fn superficial_velocity_20_m_s_warns_and_stays_stable() {
     assert_eq!(w.verdict, Verdict::Warning);
     assert!(w.advice.contains("§4.1"), "{}", w.advice);
     // At the case's own 1 m/s the check passes.
-    let cfg = DemConfig::from_scene(&vertical(&[])).unwrap();
+    let cfg = plugflow::setup::dem_config(&vertical(&[])).unwrap();
     let c = coupling_from_scene(&vertical(&[]), &cfg).unwrap().unwrap();
     assert!(c
         .checks
@@ -455,7 +455,7 @@ fn blocked_tube_pressure_rises_without_blow_up() {
 fn grains_on_grid_nodes_and_on_the_wall() {
     let s = vertical(&["inlet.mass_flow=0.01 kg/h"]);
     let g = s.file.gas.as_ref().unwrap();
-    let cfg = DemConfig::from_scene(&s).unwrap();
+    let cfg = plugflow::setup::dem_config(&s).unwrap();
     let t = cfg.tube.unwrap();
     let grid = TubeGrid::new(
         t.origin, t.axis, t.radius, t.length, g.grid[0], g.grid[1], g.grid[2],

@@ -13,7 +13,6 @@ mod common;
 
 use std::path::PathBuf;
 
-use common::plugflow;
 use ndarray::Array2;
 
 /// Pipe diameter and grain diameter of the case, m.
@@ -32,14 +31,8 @@ fn run_short_case(tag: &str, extra: &[&str]) -> (PathBuf, serde_json::Value) {
         env!("CARGO_MANIFEST_DIR"),
         "/cases/xiang_mcglinchey_short.toml"
     );
-    let out = std::env::temp_dir().join(format!("plugflow_{tag}_{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&out);
-    let mut args = vec!["run", case, "--out", out.to_str().unwrap(), "--quiet"];
-    args.extend_from_slice(extra);
-    let (code, text) = plugflow(&args);
+    let (code, text, out, summary) = common::run_case(case, tag, extra);
     assert_eq!(code, 0, "{text}");
-    let summary: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
     assert_eq!(summary["status"], "completed", "{summary}");
     assert_eq!(summary["grains_lost"].as_f64().unwrap(), 0.0, "{summary}");
     (out, summary)

@@ -62,8 +62,7 @@ fn cli_runs_a_case_on_yade() {
         "--quiet",
     ]);
     assert_eq!(code, 0, "{text}");
-    let s: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
+    let s: serde_json::Value = common::read_summary(&out);
     assert_eq!(s["engine"], "yade");
     assert!(
         s["engine_version"].as_str().unwrap().starts_with("YADE 20"),

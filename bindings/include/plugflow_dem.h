@@ -12,7 +12,7 @@
  *  - pf_dem_abi_version() == PF_DEM_ABI_MAJOR << 16 | PF_DEM_ABI_MINOR. A loader refuses a
  *    library with another major; minors only add optional calls (a loader binds optional
  *    calls only when the library exports them).
- *  - Optional calls: pf_dem_set_implicit_drag, pf_dem_flow_get.
+ *  - Optional calls: pf_dem_set_implicit_drag, pf_dem_flow_get, pf_dem_check (since 1.1).
  */
 #ifndef PLUGFLOW_DEM_H
 #define PLUGFLOW_DEM_H
@@ -25,7 +25,7 @@ extern "C" {
 #endif
 
 #define PF_DEM_ABI_MAJOR 1
-#define PF_DEM_ABI_MINOR 0
+#define PF_DEM_ABI_MINOR 1
 
 /* Status codes (fixed numbers; never renumbered). */
 #define PF_OK 0
@@ -70,6 +70,11 @@ uint32_t pf_dem_abi_version(void);
  * On success *out holds the handle. On failure *out is NULL and
  * pf_dem_last_error(NULL, ...) tells why. */
 pf_status pf_dem_create(const char *scene_json, size_t len, pf_dem **out);
+
+/* Optional (1.1). Check the scene as pf_dem_create would (the engine's own refusals: its
+ * mapping of laws, walls and grains) without starting the engine. On failure
+ * pf_dem_last_error(NULL, ...) tells why. */
+pf_status pf_dem_check(const char *scene_json, size_t len);
 
 /* Free the engine; NULL is ignored. */
 void pf_dem_destroy(pf_dem *dem);

@@ -15,7 +15,7 @@ use crate::{Real, Vec3};
 /// ABI major version: a loader refuses a library with another major.
 pub const ABI_MAJOR: u32 = 1;
 /// ABI minor version: minors only add optional calls.
-pub const ABI_MINOR: u32 = 0;
+pub const ABI_MINOR: u32 = 1;
 /// `abi_version()` of this build: major << 16 | minor.
 pub const ABI_VERSION: u32 = (ABI_MAJOR << 16) | ABI_MINOR;
 
@@ -78,6 +78,7 @@ pub struct PfDemFlow {
 
 pub type AbiVersionFn = unsafe extern "C" fn() -> u32;
 pub type CreateFn = unsafe extern "C" fn(*const c_char, usize, *mut *mut PfDem) -> i32;
+pub type CheckFn = unsafe extern "C" fn(*const c_char, usize) -> i32;
 pub type DestroyFn = unsafe extern "C" fn(*mut PfDem);
 pub type LastErrorFn = unsafe extern "C" fn(*const PfDem, *mut c_char, usize) -> usize;
 pub type InfoGetFn = unsafe extern "C" fn(*const PfDem, *mut PfDemInfo) -> i32;
@@ -116,6 +117,7 @@ pub fn declarations() -> Vec<(&'static str, &'static str, bool)> {
     vec![
         ("pf_dem_abi_version", type_name::<AbiVersionFn>(), false),
         ("pf_dem_create", type_name::<CreateFn>(), false),
+        ("pf_dem_check", type_name::<CheckFn>(), true),
         ("pf_dem_destroy", type_name::<DestroyFn>(), false),
         ("pf_dem_last_error", type_name::<LastErrorFn>(), false),
         ("pf_dem_info_get", type_name::<InfoGetFn>(), false),
@@ -216,6 +218,61 @@ fn c_text(raw: &[c_char]) -> String {
         .map(|c| *c as u8)
         .collect();
     String::from_utf8_lossy(&bytes).into_owned()
+}
+
+/// What an engine's library said of a scene it was asked to check.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum CheckOutcome {
+    /// The engine would take the scene.
+    Accepted,
+    /// The engine refuses it, saying why.
+    Refused(String),
+    /// The library predates `pf_dem_check` (ABI 1.0): only creating the engine would tell.
+    NotOffered,
+}
+
+/// Ask the engine in `library` whether it takes the scene (JSON text), without starting it
+/// (`pf_dem_check`, ABI 1.1).
+pub fn check_scene(library: &Path, scene_json: &str) -> Result<CheckOutcome, LoadError> {
+    let path = library.display().to_string();
+    // SAFETY: as in `AbiBackend::load`: plugflow's own shims, built for this ABI.
+    let lib = unsafe { libloading::Library::new(library) }.map_err(|e| LoadError::Open {
+        path: path.clone(),
+        reason: e.to_string(),
+    })?;
+    // SAFETY: the symbols have the ABI's types (the header test keeps both sides equal).
+    let version: AbiVersionFn = unsafe { lib.get::<AbiVersionFn>(b"pf_dem_abi_version\0") }
+        .map(|s| *s)
+        .map_err(|_| LoadError::Missing {
+            path: path.clone(),
+            symbol: "pf_dem_abi_version".into(),
+        })?;
+    // SAFETY: no arguments.
+    let v = unsafe { version() };
+    if v >> 16 != ABI_MAJOR {
+        return Err(LoadError::Version {
+            path,
+            major: v >> 16,
+            minor: v & 0xffff,
+        });
+    }
+    let (Ok(check), Ok(last_error)) = (
+        // SAFETY: as above.
+        unsafe { lib.get::<CheckFn>(b"pf_dem_check\0") },
+        unsafe { lib.get::<LastErrorFn>(b"pf_dem_last_error\0") },
+    ) else {
+        return Ok(CheckOutcome::NotOffered);
+    };
+    // SAFETY: the text pointer and length describe `scene_json`.
+    let st = unsafe { check(scene_json.as_ptr() as *const c_char, scene_json.len()) };
+    if st == status::OK {
+        Ok(CheckOutcome::Accepted)
+    } else {
+        Ok(CheckOutcome::Refused(read_error(
+            *last_error,
+            std::ptr::null(),
+        )))
+    }
 }
 
 impl AbiBackend {

@@ -125,13 +125,14 @@ pub fn triples(flat: &[f64]) -> Vec<[f64; 3]> {
 }
 
 /// Export the whole DEM ABI (`bindings/include/plugflow_dem.h`) from a crate, over any
-/// engine implementing [`crate::DemBackend`]: `export_dem_abi!(build)` with
-/// `fn build(scene_json: &str) -> Result<Box<dyn DemBackend>, String>`. Every body runs
+/// engine implementing [`crate::DemBackend`]: `export_dem_abi!(build, check)` with
+/// `fn build(scene_json: &str) -> Result<Box<dyn DemBackend>, String>` and `fn check(scene_json:
+/// &str) -> Result<(), String>` (the engine's refusals without starting it). Every body runs
 /// behind `catch_unwind`; errors become status codes and `pf_dem_last_error` text. The
 /// exports are checked at compile time against the loader's pointer types.
 #[macro_export]
 macro_rules! export_dem_abi {
-    ($build:ident) => {
+    ($build:ident, $check:ident) => {
         mod __pf_dem_abi {
             #![allow(clippy::missing_safety_doc)] // the safety contract is the C header's
 
@@ -221,6 +222,26 @@ macro_rules! export_dem_abi {
                         *out = Box::into_raw(h) as *mut PfDem;
                         status::OK
                     }
+                    Ok(Err(msg)) => fail(status::SCENE, msg),
+                    Err(p) => fail(status::PANIC, format!("internal error: {}", panic_text(p))),
+                }
+            }
+
+            #[no_mangle]
+            pub unsafe extern "C" fn pf_dem_check(scene_json: *const c_char, len: usize) -> i32 {
+                let fail = |code: i32, msg: String| {
+                    CREATE_ERROR.with(|e| *e.borrow_mut() = msg);
+                    code
+                };
+                if scene_json.is_null() {
+                    return fail(status::NULL, "`scene_json` is NULL".into());
+                }
+                let bytes = std::slice::from_raw_parts(scene_json as *const u8, len);
+                let Ok(json) = std::str::from_utf8(bytes) else {
+                    return fail(status::SCENE, "scene JSON is not UTF-8".into());
+                };
+                match catch_unwind(|| super::$check(json)) {
+                    Ok(Ok(())) => status::OK,
                     Ok(Err(msg)) => fail(status::SCENE, msg),
                     Err(p) => fail(status::PANIC, format!("internal error: {}", panic_text(p))),
                 }
@@ -444,6 +465,7 @@ macro_rules! export_dem_abi {
                 let _: abi::ReadWallForcesFn = pf_dem_read_wall_forces;
                 let _: abi::WallNameFn = pf_dem_wall_name;
                 let _: abi::FlowGetFn = pf_dem_flow_get;
+                let _: abi::CheckFn = pf_dem_check;
             };
         }
     };

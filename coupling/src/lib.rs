@@ -4,14 +4,16 @@
 //! specific: the [`DemBackend`] trait that the built-in DEM (and, through the C ABI, LIGGGHTS
 //! and YADE) implements, the borrowed [`ParticleView`] the coupling reads grains through, the
 //! [`GasSolver`] and [`DragLaw`] traits, the grid with its deposit/interpolation kernels
-//! ([`grid`]), the co-simulation driver with its coupling checks ([`driver`]), and the
+//! ([`grid`]), the whole coupled step ([`coupler`]: [`Coupler::advance`]) and the checks made before a run
+//! ([`checks`]), and the
 //! [`StageTimer`] that times each named stage of a step (shared/DESIGN.md, "The step").
 
 pub mod abi;
 pub mod abi_export;
 pub mod backend;
+pub mod checks;
+pub mod coupler;
 pub mod drag;
-pub mod driver;
 pub mod gas;
 pub mod grid;
 pub mod isolated;
@@ -20,8 +22,9 @@ pub mod timing;
 pub use backend::{
     BackendError, DemBackend, GrainFlow, ImplicitDrag, NewParticle, ParticleView, WallForce,
 };
+pub use checks::{CouplingCheck, Verdict};
+pub use coupler::{Coupler, CouplingStats, ExchangeError, Stage, StepError};
 pub use drag::{DarcyVolumeForce, DragLaw, GrainInFluid};
-pub use driver::{Coupler, CouplingCheck, ExchangeError, Verdict};
 pub use gas::{GasError, GasSolver, GasStepReport};
 pub use grid::{deposit, GranularFields, Stencil, TubeGrid};
 pub use timing::StageTimer;

@@ -1,7 +1,6 @@
 //! The rows of shared/TARGETS.md a case can reproduce: paper value and accepted band.
 
-use serde_json::{json, Value};
-
+use crate::summary::{Number, Summary, TargetRow};
 use crate::Real;
 
 /// One target row.
@@ -9,8 +8,8 @@ use crate::Real;
 pub struct Target {
     /// Row id in TARGETS.md.
     pub id: &'static str,
-    /// Summary key holding the measured value.
-    pub key: &'static str,
+    /// The summary's number holding the measured value.
+    pub key: Number,
     /// What it is.
     pub what: &'static str,
     /// The paper's value (in the summary key's unit).
@@ -23,14 +22,14 @@ pub struct Target {
 pub const TARGETS: &[Target] = &[
     Target {
         id: "V1",
-        key: "pressure_drop_hpa_per_m",
+        key: Number::PressureDrop,
         what: "pressure drop at v_s = 1 m/s, hPa/m",
         paper: 39.0,
         band: (30.0, 50.0),
     },
     Target {
         id: "V2",
-        key: "particles_in_tube_mean",
+        key: Number::ParticlesInTube,
         what: "mean grains in the tube",
         paper: 3600.0,
         band: (2700.0, 4500.0),
@@ -41,42 +40,42 @@ pub const TARGETS: &[Target] = &[
     // back and so outruns the grains. Both are reported against the same band.
     Target {
         id: "V3",
-        key: "plug_max_granular_velocity_m_s",
+        key: Number::PlugMaxGranularVelocity,
         what: "plug velocity (max granular, fig. 11), m/s",
         paper: 0.16,
         band: (0.12, 0.30),
     },
     Target {
         id: "V3.tracked",
-        key: "plug_velocity_m_s",
+        key: Number::PlugVelocity,
         what: "plug velocity (tracked plugs, fig. 3), m/s",
         paper: 0.24,
         band: (0.12, 0.30),
     },
     Target {
         id: "V4",
-        key: "plug_length_m",
+        key: Number::PlugLength,
         what: "plug length at mid tube, m",
         paper: 0.024,
         band: (0.01, 0.06),
     },
     Target {
         id: "V5",
-        key: "plug_min_porosity",
+        key: Number::PlugMinPorosity,
         what: "minimum porosity in plugs at mid tube",
         paper: 0.47,
         band: (0.43, 0.52),
     },
     Target {
         id: "H1",
-        key: "pressure_drop_hpa_per_m",
+        key: Number::PressureDrop,
         what: "pressure drop at v_s = 1 m/s, hPa/m",
         paper: 10.0,
         band: (6.0, 15.0),
     },
     Target {
         id: "H2",
-        key: "particles_in_tube_mean",
+        key: Number::ParticlesInTube,
         what: "mean grains in the tube",
         paper: 3200.0,
         band: (2400.0, 4000.0),
@@ -85,28 +84,28 @@ pub const TARGETS: &[Target] = &[
     // the tracked slug motion is the fig. 1 reading (0.42 m/s).
     Target {
         id: "H3",
-        key: "plug_max_granular_velocity_m_s",
+        key: Number::PlugMaxGranularVelocity,
         what: "slug velocity (max granular, fig. 10), m/s",
         paper: 0.29,
         band: (0.2, 0.5),
     },
     Target {
         id: "H3.tracked",
-        key: "plug_velocity_m_s",
+        key: Number::PlugVelocity,
         what: "slug velocity (tracked slugs, fig. 1), m/s",
         paper: 0.42,
         band: (0.2, 0.5),
     },
     Target {
         id: "H4",
-        key: "plug_length_m",
+        key: Number::PlugLength,
         what: "slug length at mid tube, m",
         paper: 0.05,
         band: (0.02, 0.10),
     },
     Target {
         id: "H5",
-        key: "plug_min_porosity",
+        key: Number::PlugMinPorosity,
         what: "minimum porosity in slugs",
         paper: 0.49,
         band: (0.44, 0.54),
@@ -116,21 +115,21 @@ pub const TARGETS: &[Target] = &[
     // "paper" value its middle.
     Target {
         id: "A.dp",
-        key: "pressure_drop_hpa_per_m",
+        key: Number::PressureDrop,
         what: "series A: pressure drop, hPa/m",
         paper: 42.0,
         band: (40.0, 44.0),
     },
     Target {
         id: "A.velocity",
-        key: "plug_velocity_m_s",
+        key: Number::PlugVelocity,
         what: "series A: plug velocity, m/s",
         paper: 0.13,
         band: (0.09, 0.17),
     },
     Target {
         id: "A.length",
-        key: "plug_length_m",
+        key: Number::PlugLength,
         what: "series A: plug length, m",
         paper: 0.023,
         band: (0.006, 0.04),
@@ -140,21 +139,21 @@ pub const TARGETS: &[Target] = &[
     // "paper" value its middle.
     Target {
         id: "B.dp",
-        key: "pressure_drop_hpa_per_m",
+        key: Number::PressureDrop,
         what: "series B: pressure drop, hPa/m",
         paper: 45.0,
         band: (43.0, 47.0),
     },
     Target {
         id: "B.velocity",
-        key: "plug_velocity_m_s",
+        key: Number::PlugVelocity,
         what: "series B: plug velocity, m/s",
         paper: 0.155,
         band: (0.12, 0.19),
     },
     Target {
         id: "B.length",
-        key: "plug_length_m",
+        key: Number::PlugLength,
         what: "series B: plug length, m",
         paper: 0.053,
         band: (0.017, 0.09),
@@ -164,21 +163,21 @@ pub const TARGETS: &[Target] = &[
     // "paper" value its middle.
     Target {
         id: "C.dp",
-        key: "pressure_drop_hpa_per_m",
+        key: Number::PressureDrop,
         what: "series C: pressure drop, hPa/m",
         paper: 44.5,
         band: (42.5, 46.5),
     },
     Target {
         id: "C.velocity",
-        key: "plug_velocity_m_s",
+        key: Number::PlugVelocity,
         what: "series C: plug velocity, m/s",
         paper: 0.255,
         band: (0.18, 0.33),
     },
     Target {
         id: "C.length",
-        key: "plug_length_m",
+        key: Number::PlugLength,
         what: "series C: plug length, m",
         paper: 0.0225,
         band: (0.005, 0.04),
@@ -191,22 +190,20 @@ pub fn find(id: &str) -> Option<&'static Target> {
 }
 
 /// `targets` entries for the summary: measured beside paper, band and verdict.
-pub fn evaluate(ids: &[String], summary: &Value) -> Value {
-    Value::Array(
-        ids.iter()
-            .filter_map(|id| find(id))
-            .map(|t| {
-                let measured = summary.get(t.key).and_then(Value::as_f64);
-                json!({
-                    "id": t.id,
-                    "what": t.what,
-                    "measured": measured,
-                    "paper": t.paper,
-                    "band": [t.band.0, t.band.1],
-                    "ratio": measured.map(|m| m / t.paper),
-                    "inside": measured.is_some_and(|m| m >= t.band.0 && m <= t.band.1),
-                })
-            })
-            .collect(),
-    )
+pub fn evaluate(ids: &[String], summary: &Summary) -> Vec<TargetRow> {
+    ids.iter()
+        .filter_map(|id| find(id))
+        .map(|t| {
+            let measured = t.key.of(summary);
+            TargetRow {
+                id: t.id.to_string(),
+                what: t.what.to_string(),
+                measured,
+                paper: t.paper,
+                band: [t.band.0, t.band.1],
+                ratio: measured.map(|m| m / t.paper),
+                inside: measured.is_some_and(|m| m >= t.band.0 && m <= t.band.1),
+            }
+        })
+        .collect()
 }

@@ -2,7 +2,7 @@
 //! laws: absolute constants per material pair for the linear laws, and for Hertz the
 //! restitution to hand to the β-damping form those engines use.
 
-use super::config::{DemConfig, LawSet};
+use super::config::{DemConfig, LawSet, TangentialSet};
 use super::contact::{impact_restitution, invert_restitution};
 use crate::Real;
 
@@ -37,45 +37,43 @@ pub fn linear_pairs(cfg: &DemConfig) -> Option<(LinearPair, LinearPair)> {
     let m = single_grain_mass(cfg)?;
     let (m_pp, m_pw) = (0.5 * m, m);
     let damping = |zeta: Real, k: Real, m: Real| 2.0 * zeta * (k * m).sqrt();
-    match &cfg.laws {
-        LawSet::HookeHistory(l) => Some((
-            LinearPair {
-                kn: l.pp_normal.kn,
-                kt: l.pp_normal.kt,
-                gamma_n: damping(l.pp_normal.zeta, l.pp_normal.kn, m_pp),
-                gamma_t: damping(l.pp_normal.zeta, l.pp_normal.kt, m_pp),
-                mu: l.pp_tangential.mu,
-            },
-            LinearPair {
-                kn: l.pw_normal.kn,
-                kt: l.pw_normal.kt,
-                gamma_n: damping(l.pw_normal.zeta, l.pw_normal.kn, m_pw),
-                gamma_t: damping(l.pw_normal.zeta, l.pw_normal.kt, m_pw),
-                mu: l.pw_tangential.mu,
-            },
-        )),
-        LawSet::HookeCoulomb(l) => {
-            let gn_pp = damping(l.pp_normal.zeta, l.pp_normal.kn, m_pp);
-            let gn_pw = damping(l.pw_normal.zeta, l.pw_normal.kn, m_pw);
-            Some((
-                LinearPair {
-                    kn: l.pp_normal.kn,
-                    kt: l.pp_normal.kt,
-                    gamma_n: gn_pp,
-                    gamma_t: l.pp_tangential.gamma_t.unwrap_or(gn_pp),
-                    mu: l.pp_tangential.mu,
-                },
-                LinearPair {
-                    kn: l.pw_normal.kn,
-                    kt: l.pw_normal.kt,
-                    gamma_n: gn_pw,
-                    gamma_t: l.pw_tangential.gamma_t.unwrap_or(gn_pw),
-                    mu: l.pw_tangential.mu,
-                },
-            ))
-        }
-        LawSet::HertzHistory(_) | LawSet::HertzCoulomb(_) => None,
-    }
+    let LawSet::Hooke(t) = &cfg.laws else {
+        return None;
+    };
+    let (pp, pw) = t.normal();
+    let gn_pp = damping(pp.zeta, pp.kn, m_pp);
+    let gn_pw = damping(pw.zeta, pw.kn, m_pw);
+    // The shear damping: the history law's dashpot on k_t, or the Coulomb law's γ_t.
+    let (gt_pp, gt_pw, mu_pp, mu_pw) = match t {
+        TangentialSet::History(l) => (
+            damping(pp.zeta, pp.kt, m_pp),
+            damping(pw.zeta, pw.kt, m_pw),
+            l.pp_tangential.mu,
+            l.pw_tangential.mu,
+        ),
+        TangentialSet::CoulombViscous(l) => (
+            l.pp_tangential.gamma_t.unwrap_or(gn_pp),
+            l.pw_tangential.gamma_t.unwrap_or(gn_pw),
+            l.pp_tangential.mu,
+            l.pw_tangential.mu,
+        ),
+    };
+    Some((
+        LinearPair {
+            kn: pp.kn,
+            kt: pp.kt,
+            gamma_n: gn_pp,
+            gamma_t: gt_pp,
+            mu: mu_pp,
+        },
+        LinearPair {
+            kn: pw.kn,
+            kt: pw.kt,
+            gamma_n: gn_pw,
+            gamma_t: gt_pw,
+            mu: mu_pw,
+        },
+    ))
 }
 
 /// The restitution to give an engine whose Hertz damping is −2√(5/6) β √(S_n m*) with

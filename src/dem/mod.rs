@@ -18,7 +18,7 @@ pub mod team;
 pub mod vec3;
 pub mod walls;
 
-pub use config::{DemConfig, LawSet, TubeGeometry};
+pub use config::{DemConfig, LawSet, LawVisitor, TangentialChoice, TangentialSet, TubeGeometry};
 
 use std::time::Instant;
 
@@ -324,12 +324,7 @@ impl NativeDem {
             velocity_pred,
             angular_velocity_pred,
         };
-        match &cfg.laws {
-            LawSet::HookeHistory(l) => job.run(l, team),
-            LawSet::HookeCoulomb(l) => job.run(l, team),
-            LawSet::HertzHistory(l) => job.run(l, team),
-            LawSet::HertzCoulomb(l) => job.run(l, team),
-        }
+        cfg.laws.visit(RunForces { job, team });
     }
 
     /// Velocities the dashpots see. Plain velocity-Verlet would hand them the half-step
@@ -609,6 +604,19 @@ struct ForceJob<'a> {
     wall_force: &'a mut [Vec3],
     velocity_pred: &'a [Vec3],
     angular_velocity_pred: &'a [Vec3],
+}
+
+/// The force job run on the scene's concrete law pair.
+struct RunForces<'a, 't> {
+    job: ForceJob<'a>,
+    team: &'t Team,
+}
+
+impl config::LawVisitor for RunForces<'_, '_> {
+    type Out = ();
+    fn visit<N: NormalLaw, T: TangentialLaw>(self, laws: &Laws<N, T>) {
+        self.job.run(laws, self.team)
+    }
 }
 
 impl ForceJob<'_> {

@@ -6,6 +6,7 @@ pub mod units;
 
 pub use schema::*;
 
+use plugflow_coupling::drag::{drag_law, drag_law_names};
 use std::path::Path;
 
 /// An error in a scene: which field and why (or an I/O or syntax error).
@@ -26,7 +27,13 @@ pub enum SceneError {
     /// A `--set` override could not be applied.
     #[error("override `{0}`: {1}")]
     Override(String, String),
+    /// The chosen DEM engine refuses the scene (its own mapping; the reason names the field).
+    #[error("the `{engine}` engine refuses the scene: {reason}")]
+    Engine { engine: String, reason: String },
 }
+
+/// DEM engines a scene may name (`dem.engine`); `crate::setup` builds them.
+pub const ENGINES: [&str; 4] = ["native", "native_abi", "liggghts", "yade"];
 
 impl SceneError {
     /// Shorthand for a field error.
@@ -333,13 +340,13 @@ fn check(f: &SceneFile) -> Result<(), SceneError> {
     }
     // Engine.
     let d = &f.dem;
-    if !crate::engine::ENGINES.contains(&d.engine.as_str()) {
+    if !ENGINES.contains(&d.engine.as_str()) {
         return Err(field_err(
             "dem.engine",
             format!(
                 "unknown engine `{}` (known: {})",
                 d.engine,
-                crate::engine::ENGINES.join(", ")
+                ENGINES.join(", ")
             ),
         ));
     }
@@ -749,23 +756,25 @@ fn check_gas(f: &SceneFile) -> Result<(), SceneError> {
         ));
     }
     let drag = f.coupling.as_ref().map_or("darcy", |c| c.drag.as_str());
-    let fits = match drag {
-        "darcy" => !simple,
-        "ergun_wen_yu" | "di_felice" => simple,
-        other => {
-            return Err(field_err(
-                "coupling.drag",
-                format!("unknown drag law `{other}` (darcy, ergun_wen_yu, di_felice)"),
-            ))
-        }
-    };
-    if !fits {
+    // The drag registry says what each law needs (coupling/src/drag/mod.rs).
+    let law = drag_law(drag).ok_or_else(|| {
+        field_err(
+            "coupling.drag",
+            format!(
+                "unknown drag law `{drag}` ({})",
+                drag_law_names(|_| true, ", ")
+            ),
+        )
+    })?;
+    if law.needs_gas_velocity != simple {
         return Err(field_err(
             "coupling.drag",
             if simple {
-                "the simple gas needs a drag law of the gas velocity: ergun_wen_yu or di_felice \
-                 (set [coupling] drag = …)"
-                    .to_string()
+                format!(
+                    "the simple gas needs a drag law of the gas velocity: {} (set [coupling] \
+                     drag = …)",
+                    drag_law_names(|l| l.needs_gas_velocity, " or ")
+                )
             } else {
                 format!("`{drag}` needs the gas velocity, which only the simple gas carries")
             },
@@ -778,12 +787,13 @@ fn check_gas(f: &SceneFile) -> Result<(), SceneError> {
             }
         }
         if let Some(cv) = c.voidage_factor {
-            if drag != "ergun_wen_yu" {
+            if !law.takes_voidage_factor {
                 return Err(field_err(
                     "coupling.voidage_factor",
                     format!(
-                        "seed 004 eq. 11 scales the voidage of the ergun_wen_yu drag; \
-                         the `{drag}` drag does not take it"
+                        "seed 004 eq. 11 scales the voidage of the {} drag; the `{drag}` drag \
+                         does not take it",
+                        drag_law_names(|l| l.takes_voidage_factor, " or ")
                     ),
                 ));
             }

@@ -1,13 +1,13 @@
 //! Helpers shared by the integration tests.
 #![allow(dead_code)]
 
-use plugflow::dem::{DemConfig, NativeDem};
+use plugflow::dem::NativeDem;
 use plugflow::scene::Scene;
 
 /// Engine from scene text (panics with the scene error: test scenes are ours).
 pub fn engine(text: &str) -> NativeDem {
     let scene = Scene::parse(text, &[]).unwrap_or_else(|e| panic!("test scene: {e}"));
-    NativeDem::new(DemConfig::from_scene(&scene).unwrap_or_else(|e| panic!("config: {e}")))
+    NativeDem::new(plugflow::setup::dem_config(&scene).unwrap_or_else(|e| panic!("config: {e}")))
         .unwrap_or_else(|e| panic!("engine: {e}"))
 }
 
@@ -68,4 +68,33 @@ pub fn plugflow(args: &[&str]) -> (i32, String) {
             String::from_utf8_lossy(&o.stderr)
         ),
     )
+}
+
+/// `summary.json` of a run folder: checked to parse as plugflow's typed
+/// [`plugflow::summary::Summary`] (so every summary a test sees keeps to the schema), and
+/// returned as JSON for reading by key, as users' scripts read it.
+pub fn read_summary(dir: &std::path::Path) -> serde_json::Value {
+    let path = dir.join("summary.json");
+    plugflow::summary::Summary::read(&path).unwrap_or_else(|e| panic!("{e}"));
+    serde_json::from_str(&std::fs::read_to_string(&path).unwrap()).unwrap()
+}
+
+/// `plugflow run CASE --out DIR --quiet EXTRA…` into a fresh temporary folder named by
+/// `tag`: (exit code, stdout + stderr, the folder, its summary or Null when none was written).
+pub fn run_case(
+    case: &str,
+    tag: &str,
+    extra: &[&str],
+) -> (i32, String, std::path::PathBuf, serde_json::Value) {
+    let out = std::env::temp_dir().join(format!("plugflow_{tag}_{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&out);
+    let mut args = vec!["run", case, "--out", out.to_str().unwrap(), "--quiet"];
+    args.extend_from_slice(extra);
+    let (code, text) = plugflow(&args);
+    let summary = if out.join("summary.json").exists() {
+        read_summary(&out)
+    } else {
+        serde_json::Value::Null
+    };
+    (code, text, out, summary)
 }

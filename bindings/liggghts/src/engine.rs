@@ -97,7 +97,7 @@ impl Liggghts {
     /// Check and map the scene, start LIGGGHTS, feed it the input, insert the scene's
     /// initial grains (placed by plugflow, so both engines start from the same bed).
     pub fn new(scene: &Scene) -> Result<Self, EngineError> {
-        let cfg = DemConfig::from_scene(scene).map_err(|e| e.to_string())?;
+        let cfg = plugflow::setup::dem_config(scene).map_err(|e| e.to_string())?;
         let user_input = scene.file.dem.liggghts_input.clone();
         let mapped = match &user_input {
             Some(path) => map_user(&cfg, path).map_err(|e| e.to_string())?,

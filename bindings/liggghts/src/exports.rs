@@ -12,4 +12,16 @@ fn build(json: &str) -> Result<Box<dyn DemBackend>, String> {
     Ok(Box::new(Liggghts::new(&scene)?))
 }
 
-plugflow_coupling::export_dem_abi!(build);
+/// The scene JSON of `pf_dem_check` → the mapping's refusals, without starting LIGGGHTS
+/// (a user's own input is read and mapped, not run: LIGGGHTS's verdict on it needs a run).
+fn check(json: &str) -> Result<(), String> {
+    let scene = Scene::from_json(json).map_err(|e| e.to_string())?;
+    let cfg = plugflow::setup::dem_config(&scene).map_err(|e| e.to_string())?;
+    match &scene.file.dem.liggghts_input {
+        Some(path) => crate::input::map_user(&cfg, path).map(|_| ()),
+        None => crate::input::map(&scene, &cfg).map(|_| ()),
+    }
+    .map_err(|e| e.to_string())
+}
+
+plugflow_coupling::export_dem_abi!(build, check);

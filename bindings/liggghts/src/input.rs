@@ -1,7 +1,7 @@
 //! Scene → LIGGGHTS input. Everything is checked here, before LIGGGHTS sees a line: a
 //! scene this mapping cannot express exactly is refused with the field and the reason.
 
-use plugflow::dem::config::LawSet;
+use plugflow::dem::config::{LawSet, TangentialSet};
 use plugflow::dem::external::{beta_form_restitution, linear_pairs, single_grain_mass, LinearPair};
 use plugflow::dem::walls::WallShape;
 use plugflow::dem::DemConfig;
@@ -100,13 +100,13 @@ pub fn map(scene: &Scene, cfg: &DemConfig) -> Result<Mapped, Refusal> {
     // Hertz: (E, ν, e_L grain–grain, e_L grain–wall) for LIGGGHTS's own `model hertz`.
     let mut hertz: Option<(f64, f64, f64, f64)> = None;
     let (pp, pw, history) = match &cfg.laws {
-        LawSet::HookeHistory(_) | LawSet::HookeCoulomb(_) => {
+        LawSet::Hooke(_) => {
             // The seeds' regularised Coulomb law min(μ F_n, γ_t |v_t|) is LIGGGHTS's
             // `tangential no_history`.
             let (pp, pw) = linear_pairs(cfg).expect("one grain size, Hooke");
             (pp, pw, cfg.laws.uses_history())
         }
-        LawSet::HertzHistory(l) => {
+        LawSet::Hertz(TangentialSet::History(l)) => {
             // LIGGGHTS's `model hertz` damps with γ = −2√(5/6) β √(S_n m*), S_n = 2Y*√(Rδ):
             // the built-in Tsuji form with the restitution of `beta_form_restitution`.
             // k_n = 4/3 Y*√(Rδ), k_t = 8G*√(Rδ) and the tangential damping follow from the
@@ -143,7 +143,7 @@ pub fn map(scene: &Scene, cfg: &DemConfig) -> Result<Mapped, Refusal> {
                 true,
             )
         }
-        LawSet::HertzCoulomb(_) => {
+        LawSet::Hertz(TangentialSet::CoulombViscous(_)) => {
             return Err(refuse(
                 "contact.tangential",
                 "`coulomb_viscous` with `hertz`: LIGGGHTS's `no_history` damps with the Hertz \

@@ -4,15 +4,21 @@
 //! agree bit for bit. The exports themselves come from `plugflow_coupling::export_dem_abi!`
 //! (every body behind `catch_unwind`, errors as status codes and last-error text).
 
-use plugflow::dem::{DemConfig, NativeDem};
+use plugflow::dem::NativeDem;
 use plugflow::scene::Scene;
 use plugflow_coupling::DemBackend;
 
 /// The scene JSON of `pf_dem_create` → the built-in engine.
 fn build(json: &str) -> Result<Box<dyn DemBackend>, String> {
     let scene = Scene::from_json(json).map_err(|e| e.to_string())?;
-    let cfg = DemConfig::from_scene(&scene).map_err(|e| e.to_string())?;
+    let cfg = plugflow::setup::dem_config(&scene).map_err(|e| e.to_string())?;
     Ok(Box::new(NativeDem::new(cfg).map_err(|e| e.to_string())?))
 }
 
-plugflow_coupling::export_dem_abi!(build);
+/// The scene JSON of `pf_dem_check` → the built-in engine's refusals (its configuration and
+/// the initial placement; the engine is built and dropped, which is all it takes).
+fn check(json: &str) -> Result<(), String> {
+    build(json).map(drop)
+}
+
+plugflow_coupling::export_dem_abi!(build, check);

@@ -10,9 +10,9 @@
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
-use plugflow::cosim::coupling_from_scene;
-use plugflow::dem::{DemConfig, NativeDem};
+use plugflow::dem::NativeDem;
 use plugflow::scene::Scene;
+use plugflow::setup::coupling_from_scene;
 use plugflow_coupling::abi::{self, AbiBackend, LoadError, PfDemFlow, PfDemInfo};
 use plugflow_coupling::DemBackend;
 
@@ -298,7 +298,7 @@ fn c_program_through_the_header_matches_the_engine_bit_for_bit() {
     let head = lines.next().unwrap().to_string();
 
     // The same sequence, directly.
-    let mut dem = NativeDem::new(DemConfig::from_scene(&scene).unwrap()).unwrap();
+    let mut dem = NativeDem::new(plugflow::setup::dem_config(&scene).unwrap()).unwrap();
     let mut done = 0;
     while done < steps {
         dem.advance(100).unwrap();
@@ -342,7 +342,7 @@ fn coupled_run_through_the_loader_matches_the_direct_engine_bit_for_bit() {
         &["dem.threads=2".to_string()],
     )
     .unwrap();
-    let cfg = DemConfig::from_scene(&scene).unwrap();
+    let cfg = plugflow::setup::dem_config(&scene).unwrap();
     let mut direct = NativeDem::new(cfg.clone()).unwrap();
     let mut via_abi = AbiBackend::load(&library(), &scene.to_json()).unwrap();
     assert_eq!(via_abi.engine_name(), "native");

@@ -117,7 +117,7 @@ impl Yade {
     /// Check and map the scene, build it in YADE, insert the scene's initial grains
     /// (placed by plugflow, so every engine starts from the same bed).
     pub fn new(scene: &Scene) -> Result<Self, String> {
-        let cfg = DemConfig::from_scene(scene).map_err(|e| e.to_string())?;
+        let cfg = plugflow::setup::dem_config(scene).map_err(|e| e.to_string())?;
         let setup = map(scene, &cfg).map_err(|e| e.to_string())?;
         let json = serde_json::to_string(&setup).map_err(|e| e.to_string())?;
         let initial = if cfg.initial.is_some() {

@@ -12,4 +12,13 @@ fn build(json: &str) -> Result<Box<dyn DemBackend>, String> {
     Ok(Box::new(Yade::new(&scene)?))
 }
 
-plugflow_coupling::export_dem_abi!(build);
+/// The scene JSON of `pf_dem_check` → YADE's refusals (the mapping of laws, walls and
+/// grains), without starting Python or YADE.
+fn check(json: &str) -> Result<(), String> {
+    let scene = Scene::from_json(json).map_err(|e| e.to_string())?;
+    let cfg = plugflow::setup::dem_config(&scene).map_err(|e| e.to_string())?;
+    crate::input::map(&scene, &cfg).map_err(|e| e.to_string())?;
+    Ok(())
+}
+
+plugflow_coupling::export_dem_abi!(build, check);

@@ -30,7 +30,7 @@
 //! together); YADE's Mindlin law integrates the shear force incrementally and damps shear
 //! with the normal coefficient.
 
-use plugflow::dem::config::LawSet;
+use plugflow::dem::config::{LawSet, TangentialSet};
 use plugflow::dem::external::{
     beta_form_restitution, linear_cutoff_damping_ratio, linear_pairs, single_grain_mass, LinearPair,
 };
@@ -216,7 +216,8 @@ pub fn map(scene: &Scene, cfg: &DemConfig) -> Result<Setup, Refusal> {
     };
     let rho = cfg.density;
     let (law, grain, cap, tube_wall, en_pp, en_pw) = match &cfg.laws {
-        LawSet::HookeCoulomb(_) | LawSet::HertzCoulomb(_) => {
+        LawSet::Hooke(TangentialSet::CoulombViscous(_))
+        | LawSet::Hertz(TangentialSet::CoulombViscous(_)) => {
             return Err(refuse(
                 "contact.tangential",
                 "YADE has no regularised Coulomb law: its viscous shear force is never capped \
@@ -224,7 +225,7 @@ pub fn map(scene: &Scene, cfg: &DemConfig) -> Result<Setup, Refusal> {
                  sticks); use `history`",
             ))
         }
-        LawSet::HookeHistory(l) => {
+        LawSet::Hooke(TangentialSet::History(l)) => {
             let (mut pp, mut pw): (LinearPair, LinearPair) =
                 linear_pairs(cfg).expect("one grain size, Hooke");
             // YADE clamps F_n ≥ 0, ending the contact before the overlap closes: the
@@ -267,7 +268,7 @@ pub fn map(scene: &Scene, cfg: &DemConfig) -> Result<Setup, Refusal> {
             };
             ("viscel", grain, wall.clone(), wall, 0.0, 0.0)
         }
-        LawSet::HertzHistory(l) => {
+        LawSet::Hertz(TangentialSet::History(l)) => {
             let c = &scene.file.contact;
             let e = c.youngs_modulus.map(|q| q.si).unwrap_or(0.0);
             let nu = c.poisson_ratio.map(|q| q.0).unwrap_or(0.0);

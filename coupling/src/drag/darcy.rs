@@ -1,7 +1,15 @@
 //! The d'Arcy volume force (seed 000 eq. 6, seed 002 eq. 6).
 
-use super::{DragLaw, GrainInFluid};
+use super::{DragLaw, DragLawEntry, GrainInFluid};
 use crate::Vec3;
+
+/// The registry's entry (`coupling.drag = "darcy"`, the d'Arcy gas's law).
+pub(super) const ENTRY: DragLawEntry = DragLawEntry {
+    name: "darcy",
+    needs_gas_velocity: false,
+    takes_voidage_factor: false,
+    build: |_| std::sync::Arc::new(DarcyVolumeForce),
+};
 
 /// The d'Arcy volume force of seed 000 eq. 6 with the factor m restored:
 /// F_i = −V_i ∇P_i / (1 − φ_i). Summed over the grains of a region it returns the whole

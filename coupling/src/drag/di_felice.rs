@@ -8,8 +8,20 @@
 //! with w = u − v the interstitial slip (ε w the superficial one), plus the pressure
 //! gradient force −V_p ∇p as for `ergun_wen_yu`.
 
-use super::{slip_force, DragLaw, GrainInFluid};
+use super::{slip_force, DragLaw, DragLawEntry, GrainInFluid};
 use crate::{Real, Vec3};
+
+/// The registry's entry (`coupling.drag = "di_felice"`).
+pub(super) const ENTRY: DragLawEntry = DragLawEntry {
+    name: "di_felice",
+    needs_gas_velocity: true,
+    takes_voidage_factor: false,
+    build: |s| {
+        std::sync::Arc::new(DiFelice {
+            viscosity: s.viscosity,
+        })
+    },
+};
 
 /// The Di Felice drag law with the gas's viscosity.
 #[derive(Debug, Clone, Copy)]

@@ -20,8 +20,21 @@
 //! switch, the coefficient and Re alike; C_V compares the model's voidage with the
 //! experiment's. C_V = 1 (the default) is the law as written above.
 
-use super::{slip_force, DragLaw, GrainInFluid};
+use super::{slip_force, DragLaw, DragLawEntry, GrainInFluid};
 use crate::{Real, Vec3};
+
+/// The registry's entry (`coupling.drag = "ergun_wen_yu"`).
+pub(super) const ENTRY: DragLawEntry = DragLawEntry {
+    name: "ergun_wen_yu",
+    needs_gas_velocity: true,
+    takes_voidage_factor: true,
+    build: |s| {
+        std::sync::Arc::new(ErgunWenYu {
+            viscosity: s.viscosity,
+            voidage_factor: s.voidage_factor,
+        })
+    },
+};
 
 /// Porosity where Ergun hands over to Wen–Yu.
 pub const SWITCH_POROSITY: Real = 0.8;

@@ -2,6 +2,10 @@
 //! per law behind [`DragLaw`]: `darcy` (the seeds' volume force, 000 and 002),
 //! `ergun_wen_yu` (seed 004 eqs. 12–13, the Gidaspow switch) and `di_felice`; the last two
 //! need a gas velocity, which the SIMPLE solver (src/gas/simple.rs) carries.
+//!
+//! Every law registers itself in [`DRAG_LAWS`] (one `ENTRY` in its own file, one line here):
+//! the scene check, the gas and the coupler all read that table, so a new law is one file
+//! and one line, and a name the table lacks is refused, never run as another law.
 
 mod darcy;
 mod di_felice;
@@ -12,6 +16,47 @@ pub use di_felice::DiFelice;
 pub use ergun_wen_yu::ErgunWenYu;
 
 use crate::{Real, Vec3};
+use std::sync::Arc;
+
+/// What a drag law is built from: the scene's gas and coupling settings.
+#[derive(Debug, Clone, Copy)]
+pub struct DragSettings {
+    /// Gas viscosity μ, Pa·s.
+    pub viscosity: Real,
+    /// Seed 004's voidage factor C_V (eq. 11), for laws that take it; 1 when not given.
+    pub voidage_factor: Real,
+}
+
+/// A drag law in the registry: its name in the scene, what it needs, how to build it.
+pub struct DragLawEntry {
+    /// `coupling.drag` as the scene writes it.
+    pub name: &'static str,
+    /// The law is a law of the slip u − v: only a gas that carries its velocity (`simple`)
+    /// can feed it; the others (the d'Arcy volume force) pair with the d'Arcy gas.
+    pub needs_gas_velocity: bool,
+    /// The law takes seed 004's `coupling.voidage_factor`.
+    pub takes_voidage_factor: bool,
+    /// The law with the scene's settings; one instance serves the grains and the gas.
+    pub build: fn(&DragSettings) -> Arc<dyn DragLaw>,
+}
+
+/// Every drag law a scene may name, in the order the messages list them.
+pub static DRAG_LAWS: &[DragLawEntry] = &[darcy::ENTRY, ergun_wen_yu::ENTRY, di_felice::ENTRY];
+
+/// The registered law called `name`.
+pub fn drag_law(name: &str) -> Option<&'static DragLawEntry> {
+    DRAG_LAWS.iter().find(|e| e.name == name)
+}
+
+/// The names of the registered laws that pass `keep`, joined by `sep`.
+pub fn drag_law_names(keep: impl Fn(&DragLawEntry) -> bool, sep: &str) -> String {
+    DRAG_LAWS
+        .iter()
+        .filter(|e| keep(e))
+        .map(|e| e.name)
+        .collect::<Vec<_>>()
+        .join(sep)
+}
 
 /// What a drag law knows about a grain and the gas around it.
 #[derive(Debug, Clone, Copy)]

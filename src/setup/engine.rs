@@ -7,16 +7,15 @@ use plugflow_coupling::abi::AbiBackend;
 use plugflow_coupling::isolated::IsolatedBackend;
 use plugflow_coupling::DemBackend;
 
+use plugflow_coupling::abi::{check_scene, CheckOutcome};
+
 use crate::dem::{DemConfig, NativeDem};
 use crate::scene::{Scene, SceneError};
-
-/// Engines a scene may name.
-pub const ENGINES: [&str; 4] = ["native", "native_abi", "liggghts", "yade"];
 
 /// The library of an ABI engine: the scene's `dem.library`, else
 /// `libplugflow_dem_<engine>.so` next to the running executable (where cargo builds it;
 /// for test binaries, one folder up).
-fn library(scene: &Scene) -> Result<PathBuf, SceneError> {
+pub fn library(scene: &Scene) -> Result<PathBuf, SceneError> {
     let d = &scene.file.dem;
     if let Some(p) = &d.library {
         return Ok(PathBuf::from(p));
@@ -90,5 +89,31 @@ pub fn build_backend(scene: &Scene, cfg: &DemConfig) -> Result<Box<dyn DemBacken
                 .map_err(|e| SceneError::field("dem.engine", e.to_string()))?;
             Ok(Box::new(engine))
         }
+    }
+}
+
+/// The chosen engine's own refusals, without starting it: the built-in engine is built
+/// (that is its check: the initial placement), an ABI engine answers `pf_dem_check`.
+pub fn check_engine(scene: &Scene, cfg: &DemConfig) -> Result<(), SceneError> {
+    if scene.file.dem.engine == "native" {
+        return NativeDem::new(cfg.clone()).map(drop);
+    }
+    let lib = library(scene)?;
+    match check_scene(&lib, &scene.to_json()) {
+        Ok(CheckOutcome::Accepted) => Ok(()),
+        // The engine's message names the field itself (`field `x`: reason`).
+        Ok(CheckOutcome::Refused(why)) => Err(SceneError::Engine {
+            engine: scene.file.dem.engine.clone(),
+            reason: why,
+        }),
+        Ok(CheckOutcome::NotOffered) => Err(SceneError::field(
+            "dem.engine",
+            format!(
+                "{} predates pf_dem_check (ABI 1.1) and cannot check a scene without \
+                 starting: rebuild it",
+                lib.display()
+            ),
+        )),
+        Err(e) => Err(SceneError::field("dem.engine", e.to_string())),
     }
 }

@@ -1,28 +1,29 @@
-//! Building the coupling a scene asks for: the gas solver, the drag law, the coupling
-//! interval and the checks (the driver itself is `plugflow_coupling::driver`).
+//! Building the coupling a scene asks for: the gas solver, the drag law (from the registry
+//! in `plugflow_coupling::drag`), the coupling interval and the checks. The step itself is
+//! `plugflow_coupling::Coupler::advance`.
 
-use plugflow_coupling::{
-    driver::{check_cell_volume, check_drag_relaxation, check_travel},
-    Coupler, CouplingCheck, DarcyVolumeForce, TubeGrid, Verdict,
+use plugflow_coupling::checks::{
+    check_cell_volume, check_drag_relaxation, check_travel, first_refusal,
 };
-use serde_json::{json, Value};
+use plugflow_coupling::drag::{drag_law, DragSettings};
+use plugflow_coupling::{Coupler, CouplingCheck, DragLaw, GasSolver, TubeGrid, Verdict};
 
 use crate::dem::DemConfig;
 use crate::gas::{carman_kozeny, DarcyGas, DarcyParams, Scheme, SimpleTubeGas, SolvePath};
 use crate::scene::{GasScheme, GasSolverPath, Scene, SceneError};
+use crate::summary::CheckRow;
 use crate::Real;
-use plugflow_coupling::drag::{DiFelice, ErgunWenYu};
 use std::sync::Arc;
 
-/// JSON of a check for the summary.
-pub fn check_json(c: &CouplingCheck) -> Value {
-    json!({
-        "name": c.name,
-        "value": c.value,
-        "limit": c.limit,
-        "verdict": format!("{:?}", c.verdict).to_lowercase(),
-        "advice": c.advice,
-    })
+/// A check as the summary reports it.
+pub fn check_json(c: &CouplingCheck) -> CheckRow {
+    CheckRow {
+        name: c.name.to_string(),
+        value: c.value,
+        limit: c.limit,
+        verdict: format!("{:?}", c.verdict).to_lowercase(),
+        advice: c.advice.clone(),
+    }
 }
 
 /// The coupling a scene asks for (`None` without `[gas]`).
@@ -108,16 +109,7 @@ pub fn coupling_from_scene(scene: &Scene, dem: &DemConfig) -> Result<Option<Coup
                 .and_then(|c| c.voidage_factor)
                 .map_or(1.0, |c| c.0);
             // One law for both sides: the grains' drag and the gas's interphase term.
-            let drag: Arc<dyn plugflow_coupling::DragLaw> =
-                match f.coupling.as_ref().map_or("", |c| c.drag.as_str()) {
-                    "di_felice" => Arc::new(DiFelice {
-                        viscosity: g.viscosity.si,
-                    }),
-                    _ => Arc::new(ErgunWenYu {
-                        viscosity: g.viscosity.si,
-                        voidage_factor,
-                    }),
-                };
+            let drag = build_drag(scene, g.viscosity.si, voidage_factor)?;
             gas.set_drag_law(drag.clone())
                 .map_err(|e| SceneError::field("coupling.drag", e))?;
             // Drag relaxation of a grain in a dense bed under the viscous Ergun term:
@@ -136,41 +128,57 @@ pub fn coupling_from_scene(scene: &Scene, dem: &DemConfig) -> Result<Option<Coup
                     grid.dz.min(grid.dx).min(grid.dy),
                 ),
             ];
-            if let Some(bad) = checks.iter().find(|c| c.verdict == Verdict::Refused) {
-                return Err(SceneError::field(
-                    "coupling.interval",
-                    format!(
-                        "coupling check `{}` fails: {:.4} > {:.4}; {}",
-                        bad.name, bad.value, bad.limit, bad.advice
-                    ),
-                ));
-            }
-            return Ok(Some(Coupler::new(
-                Box::new(gas),
-                Box::new(drag),
-                substeps,
-                dem.dt,
-                checks,
-            )));
+            return coupler(Box::new(gas), drag, substeps, dem.dt, checks);
         }
         let checks = coupling_checks(&params, &grid, dem, interval);
-        if let Some(bad) = checks.iter().find(|c| c.verdict == Verdict::Refused) {
-            return Err(SceneError::field(
-                "coupling.interval",
-                format!(
-                    "coupling check `{}` fails: {:.4} > {:.4}; {}",
-                    bad.name, bad.value, bad.limit, bad.advice
-                ),
-            ));
-        }
-        Ok(Some(Coupler::new(
+        let drag = build_drag(scene, g.viscosity.si, 1.0)?;
+        coupler(
             Box::new(DarcyGas::new(grid, params)),
-            Box::new(DarcyVolumeForce),
+            drag,
             substeps,
             dem.dt,
             checks,
-        )))
+        )
     }
+}
+
+/// The scene's drag law from the registry (the scene check has refused names it lacks).
+fn build_drag(
+    scene: &Scene,
+    viscosity: Real,
+    voidage_factor: Real,
+) -> Result<Arc<dyn DragLaw>, SceneError> {
+    let name = scene
+        .file
+        .coupling
+        .as_ref()
+        .map_or("darcy", |c| c.drag.as_str());
+    let entry = drag_law(name)
+        .ok_or_else(|| SceneError::field("coupling.drag", format!("unknown drag law `{name}`")))?;
+    Ok((entry.build)(&DragSettings {
+        viscosity,
+        voidage_factor,
+    }))
+}
+
+/// The coupler, unless a check refuses the run (one place for every gas model).
+fn coupler(
+    gas: Box<dyn GasSolver>,
+    drag: Arc<dyn DragLaw>,
+    substeps: u64,
+    dem_dt: Real,
+    checks: Vec<CouplingCheck>,
+) -> Result<Option<Coupler>, SceneError> {
+    if let Some(bad) = first_refusal(&checks) {
+        return Err(SceneError::field(
+            "coupling.interval",
+            format!(
+                "coupling check `{}` fails: {:.4} > {:.4}; {}",
+                bad.name, bad.value, bad.limit, bad.advice
+            ),
+        ));
+    }
+    Ok(Some(Coupler::new(gas, drag, substeps, dem_dt, checks)))
 }
 
 /// The checks of a coupled run, in the manner of CFDEM's `checkCouplingInterval`.

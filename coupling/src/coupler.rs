@@ -1,0 +1,466 @@
+//! The coupled step of shared/DESIGN.md, whole, in one place: [`Coupler::advance`] takes
+//! the DEM forward by any number of steps, one coupling interval Δt_c = n_sub · Δt_dem at a
+//! time, and around each interval runs the stages in this order:
+//!
+//! ```text
+//!   DEM advance (n_sub steps, fluid force held)      Stage::DemAdvance (the engine's own timers)
+//!   → deposit φ_j, u_j on the gas nodes               Stage::Deposit
+//!   → gas step over the interval just advanced        Stage::Gas  (+ Stage::AccuracyCheck)
+//!   → interpolate ∇P_i, φ_i, u_i and the drag law     Stage::InterpolateDrag
+//!   → fluid forces to the DEM                         Stage::SetForces
+//! ```
+//!
+//! A run whose length is not a whole number of intervals ends with a shorter one: the DEM
+//! advances the remaining steps and the gas steps over exactly that time.
+
+use crate::checks::CouplingCheck;
+use crate::grid::{deposit, interpolate_scalar, interpolate_vec3, GranularFields, TubeGrid};
+use crate::{
+    BackendError, DemBackend, DragLaw, GasError, GasSolver, GrainInFluid, Real, StageTimer, Vec3,
+};
+use std::sync::Arc;
+
+/// The timed stages of the coupled step, in the order they run.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Stage {
+    /// Grains' volume and velocity onto the gas nodes.
+    Deposit,
+    /// The step-doubling estimate of the gas time error (every [`DOUBLING_EVERY`] exchanges).
+    AccuracyCheck,
+    /// The gas solver over one interval.
+    Gas,
+    /// Fields back to the grains and the drag law on each.
+    InterpolateDrag,
+    /// The fluid forces handed to the DEM engine.
+    SetForces,
+}
+
+impl Stage {
+    /// The stage's name in `summary.json`'s `stage_times_s`.
+    pub const fn name(self) -> &'static str {
+        match self {
+            Stage::Deposit => "deposit",
+            Stage::AccuracyCheck => "accuracy_check",
+            Stage::Gas => "gas",
+            Stage::InterpolateDrag => "interpolate_drag",
+            Stage::SetForces => "set_forces",
+        }
+    }
+}
+
+/// Errors of the exchange.
+#[derive(Debug, thiserror::Error)]
+pub enum ExchangeError {
+    #[error(transparent)]
+    Gas(#[from] GasError),
+    #[error(transparent)]
+    Backend(#[from] BackendError),
+    /// A drag force became NaN or infinite.
+    #[error("drag force not finite on grain id {particle_id} at t = {time:.6} s (porosity {porosity}, ∇P {gradient:?})")]
+    Drag {
+        particle_id: u64,
+        time: Real,
+        porosity: Real,
+        gradient: Vec3,
+    },
+}
+
+/// What stopped a coupled advance, with the simulated time it stopped at.
+#[derive(Debug, thiserror::Error)]
+pub enum StepError {
+    /// The DEM engine failed (NaN, blow-up, engine failure).
+    #[error("run stopped at t = {time:.6} s: {source}")]
+    Backend { time: Real, source: BackendError },
+    /// The gas or the exchange failed (NaN pressure, drag).
+    #[error("run stopped at t = {time:.6} s: {source}")]
+    Exchange { time: Real, source: ExchangeError },
+}
+
+/// Every this many exchanges the gas step is also taken as two half steps (from the same
+/// state, discarded) to estimate its time error: three extra gas steps per hundred.
+pub const DOUBLING_EVERY: u64 = 100;
+
+/// Sums of what the exchanges saw, for the run's accuracy report.
+#[derive(Debug, Clone, Default)]
+pub struct CouplingStats {
+    /// Node-steps whose porosity was clamped, and node-steps in all.
+    pub clamped: u64,
+    pub node_steps: u64,
+    /// Node-steps clamped up to φ_min (over-packed nodes).
+    pub clamped_low: u64,
+    /// Largest relative gas-mass imbalance of any step.
+    pub mass_error_max: Real,
+    /// Step-doubling estimates of the gas time error: how many, their largest and sum.
+    pub doubling_checks: u64,
+    pub doubling_max: Real,
+    pub doubling_sum: Real,
+}
+
+/// A gas solver and a drag law coupled to a DEM backend.
+pub struct Coupler {
+    /// The gas solver.
+    pub gas: Box<dyn GasSolver>,
+    drag: Arc<dyn DragLaw>,
+    fields: GranularFields,
+    /// DEM steps per coupling interval.
+    pub substeps: u64,
+    /// DEM time step, s.
+    dem_dt: Real,
+    /// Coupling interval, s.
+    pub interval: Real,
+    /// Checks made before the run.
+    pub checks: Vec<CouplingCheck>,
+    /// Time of each coupling stage.
+    pub timer: StageTimer,
+    /// What the exchanges saw so far.
+    pub stats: CouplingStats,
+    /// Exchanges so far.
+    exchanges: u64,
+    forces: Vec<Vec3>,
+    /// Grains with ids from this one on are new since the last exchange (None before the
+    /// first): engines number grains in the order they create them.
+    first_new_id: Option<u64>,
+}
+
+impl Coupler {
+    /// Couple `gas` and `drag` with `substeps` DEM steps of `dem_dt` per exchange.
+    pub fn new(
+        gas: Box<dyn GasSolver>,
+        drag: Arc<dyn DragLaw>,
+        substeps: u64,
+        dem_dt: Real,
+        checks: Vec<CouplingCheck>,
+    ) -> Self {
+        Self {
+            gas,
+            drag,
+            fields: GranularFields::default(),
+            substeps,
+            dem_dt,
+            interval: substeps as Real * dem_dt,
+            checks,
+            timer: StageTimer::new(),
+            stats: CouplingStats::default(),
+            exchanges: 0,
+            forces: Vec::new(),
+            first_new_id: None,
+        }
+    }
+
+    /// Advance the coupled system by `steps` DEM steps: whole coupling intervals, then a
+    /// shorter last one if `steps` is not a multiple of [`Coupler::substeps`].
+    pub fn advance(&mut self, dem: &mut dyn DemBackend, steps: u64) -> Result<(), StepError> {
+        let mut left = steps;
+        while left > 0 {
+            let k = self.substeps.min(left);
+            dem.advance(k).map_err(|source| StepError::Backend {
+                time: dem.time(),
+                source,
+            })?;
+            self.exchange_over(dem, k as Real * self.dem_dt)
+                .map_err(|source| StepError::Exchange {
+                    time: dem.time(),
+                    source,
+                })?;
+            left -= k;
+        }
+        Ok(())
+    }
+
+    /// One exchange after the DEM has advanced one whole coupling interval.
+    pub fn exchange(&mut self, dem: &mut dyn DemBackend) -> Result<(), ExchangeError> {
+        self.exchange_over(dem, self.interval)
+    }
+
+    /// One exchange after the DEM has advanced `span` seconds: the stages of the step.
+    fn exchange_over(&mut self, dem: &mut dyn DemBackend, span: Real) -> Result<(), ExchangeError> {
+        let t = std::time::Instant::now();
+        self.deposit(dem);
+        self.timer
+            .add(Stage::Deposit.name(), t.elapsed().as_secs_f64());
+        self.gas_step(span)?;
+        let t = std::time::Instant::now();
+        self.interpolate_drag(dem)?;
+        self.timer
+            .add(Stage::InterpolateDrag.name(), t.elapsed().as_secs_f64());
+        let t = std::time::Instant::now();
+        dem.set_fluid_forces(&self.forces, None)?;
+        self.timer
+            .add(Stage::SetForces.name(), t.elapsed().as_secs_f64());
+        Ok(())
+    }
+
+    /// Deposit: solid fraction and granular velocity on the nodes, and the volume of the
+    /// grains fed since the last exchange (their gas enters with them).
+    fn deposit(&mut self, dem: &dyn DemBackend) {
+        let grid: &TubeGrid = self.gas.grid();
+        let p = dem.particles();
+        deposit(grid, p.position, p.velocity, p.radius, &mut self.fields);
+        // The grains fed since the last exchange, on the nodes (their stencils are the
+        // deposit's).
+        let fed = &mut self.fields.fed_solid;
+        fed.clear();
+        if let Some(first_new) = self.first_new_id {
+            for (i, st) in self.fields.stencils.iter().enumerate() {
+                let (Some(st), true) = (st, p.id[i] >= first_new) else {
+                    continue;
+                };
+                if fed.is_empty() {
+                    fed.resize(grid.len(), 0.0);
+                }
+                let v = 4.0 / 3.0 * std::f64::consts::PI * p.radius[i].powi(3);
+                for k in 0..st.len as usize {
+                    fed[st.node[k] as usize] += v * st.weight[k];
+                }
+            }
+            for (f, vol) in fed.iter_mut().zip(&grid.volume) {
+                *f /= vol.max(1e-300);
+            }
+        }
+        let floor = self.first_new_id.unwrap_or(0);
+        self.first_new_id = Some(p.id.iter().map(|&id| id + 1).fold(floor, u64::max));
+    }
+
+    /// The gas over `span` seconds, with its step-doubling error estimate every
+    /// [`DOUBLING_EVERY`] exchanges.
+    fn gas_step(&mut self, span: Real) -> Result<(), ExchangeError> {
+        let nodes = self.gas.grid().len();
+        // (Not at the first exchange: the gas starts there from rest, an impulsive start
+        // whose error says nothing about the run's.)
+        if self.exchanges > 0 && self.exchanges.is_multiple_of(DOUBLING_EVERY) {
+            let t = std::time::Instant::now();
+            if let Some(e) = self.gas.step_doubling_error(&self.fields, span)? {
+                let s = &mut self.stats;
+                s.doubling_checks += 1;
+                s.doubling_max = s.doubling_max.max(e);
+                s.doubling_sum += e;
+            }
+            self.timer
+                .add(Stage::AccuracyCheck.name(), t.elapsed().as_secs_f64());
+        }
+        self.exchanges += 1;
+        let t = std::time::Instant::now();
+        let report = self.gas.step(&self.fields, span)?;
+        self.timer.add(Stage::Gas.name(), t.elapsed().as_secs_f64());
+        let s = &mut self.stats;
+        s.clamped += report.clamped_nodes as u64;
+        s.clamped_low += report.clamped_low_nodes as u64;
+        s.node_steps += nodes as u64;
+        s.mass_error_max = s.mass_error_max.max(report.mass_error_rel);
+        Ok(())
+    }
+
+    /// Interpolate the gas fields to each grain and evaluate the drag law on it.
+    fn interpolate_drag(&mut self, dem: &dyn DemBackend) -> Result<(), ExchangeError> {
+        let time = dem.time();
+        let grad = self.gas.pressure_gradient();
+        let gas_u = self.gas.gas_velocity();
+        let gas_density = self.gas.gas_density();
+        let phi = self.gas.porosity();
+        let p = dem.particles();
+        self.forces.clear();
+        for i in 0..p.len() {
+            // The grains have not moved since the deposit: reuse its stencils.
+            let Some(st) = self.fields.stencils[i] else {
+                self.forces.push([0.0; 3]);
+                continue;
+            };
+            let r = p.radius[i];
+            let grain = GrainInFluid {
+                volume: 4.0 / 3.0 * std::f64::consts::PI * r * r * r,
+                diameter: 2.0 * r,
+                velocity: p.velocity[i],
+                porosity: interpolate_scalar(&st, phi),
+                pressure_gradient: interpolate_vec3(&st, &grad),
+                gas_velocity: gas_u
+                    .as_ref()
+                    .map_or([0.0; 3], |u| interpolate_vec3(&st, u)),
+                gas_density: gas_density
+                    .as_ref()
+                    .map_or(0.0, |r| interpolate_scalar(&st, r)),
+            };
+            let f = self.drag.force(&grain);
+            if !(f[0].is_finite() && f[1].is_finite() && f[2].is_finite()) {
+                return Err(ExchangeError::Drag {
+                    particle_id: p.id[i],
+                    time,
+                    porosity: grain.porosity,
+                    gradient: grain.pressure_gradient,
+                });
+            }
+            self.forces.push(f);
+        }
+        Ok(())
+    }
+
+    /// The fluid force on every grain from the last exchange, N (in the particle order of
+    /// that exchange).
+    pub fn fluid_forces(&self) -> &[Vec3] {
+        &self.forces
+    }
+
+    /// Pressure drop per length, Pa/m.
+    pub fn pressure_drop(&self) -> Real {
+        self.gas.pressure_drop_per_length()
+    }
+
+    /// Deposited porosity along the axis (cross-section mean by accessible volume).
+    pub fn porosity_profile(&self) -> Vec<Real> {
+        self.section_means(&self.fields.porosity, 1.0)
+    }
+
+    /// Gas pressure P − P0 along the axis, Pa (cross-section mean by accessible volume).
+    pub fn pressure_profile(&self) -> Vec<Real> {
+        self.section_means(self.gas.pressure(), 0.0)
+    }
+
+    /// Node positions along the axis, m (cell centres from the inlet end).
+    pub fn axial_positions(&self) -> Vec<Real> {
+        let g = self.gas.grid();
+        (0..g.nz).map(|k| (k as Real + 0.5) * g.dz).collect()
+    }
+
+    /// Volume-weighted cross-section means of a node field (`missing` where the field is
+    /// not yet filled).
+    fn section_means(&self, field: &[Real], missing: Real) -> Vec<Real> {
+        let g = self.gas.grid();
+        (0..g.nz)
+            .map(|k| {
+                let (mut s, mut v) = (0.0, 0.0);
+                for j in 0..g.ny {
+                    for i in 0..g.nx {
+                        let n = g.node(k, i, j);
+                        s += field.get(n).copied().unwrap_or(missing) * g.volume[n];
+                        v += g.volume[n];
+                    }
+                }
+                s / v
+            })
+            .collect()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::{DarcyVolumeForce, GasStepReport, ImplicitDrag, NewParticle, ParticleView};
+
+    /// An engine without grains that counts its steps.
+    struct Steps {
+        dt: Real,
+        steps: u64,
+    }
+
+    impl DemBackend for Steps {
+        fn engine_name(&self) -> &str {
+            "steps"
+        }
+        fn engine_version(&self) -> String {
+            String::new()
+        }
+        fn time_step(&self) -> Real {
+            self.dt
+        }
+        fn time(&self) -> Real {
+            self.steps as Real * self.dt
+        }
+        fn step_count(&self) -> u64 {
+            self.steps
+        }
+        fn advance(&mut self, steps: u64) -> Result<(), BackendError> {
+            self.steps += steps;
+            Ok(())
+        }
+        fn particles(&self) -> ParticleView<'_> {
+            ParticleView {
+                id: &[],
+                position: &[],
+                velocity: &[],
+                angular_velocity: &[],
+                radius: &[],
+                mass: &[],
+            }
+        }
+        fn set_fluid_forces(
+            &mut self,
+            _: &[Vec3],
+            _: Option<ImplicitDrag<'_>>,
+        ) -> Result<(), BackendError> {
+            Ok(())
+        }
+        fn insert(&mut self, _: &[NewParticle]) -> Result<Vec<u64>, BackendError> {
+            Ok(Vec::new())
+        }
+        fn remove_past_outlet(&mut self) -> Result<Real, BackendError> {
+            Ok(0.0)
+        }
+        fn wall_forces(&self) -> Vec<crate::WallForce> {
+            Vec::new()
+        }
+        fn stage_times(&self) -> Vec<(String, f64)> {
+            Vec::new()
+        }
+    }
+
+    /// A gas that records the span of every step it is asked to take.
+    struct Spans {
+        grid: TubeGrid,
+        spans: std::rc::Rc<std::cell::RefCell<Vec<Real>>>,
+        zeros: Vec<Real>,
+    }
+
+    impl GasSolver for Spans {
+        fn name(&self) -> &'static str {
+            "spans"
+        }
+        fn grid(&self) -> &TubeGrid {
+            &self.grid
+        }
+        fn set_superficial_velocity(&mut self, _: Real) {}
+        fn step(&mut self, _: &GranularFields, dt: Real) -> Result<GasStepReport, GasError> {
+            self.spans.borrow_mut().push(dt);
+            Ok(GasStepReport::default())
+        }
+        fn pressure(&self) -> &[Real] {
+            &self.zeros
+        }
+        fn porosity(&self) -> &[Real] {
+            &self.zeros
+        }
+        fn pressure_gradient(&self) -> Vec<Vec3> {
+            vec![[0.0; 3]; self.zeros.len()]
+        }
+        fn pressure_drop_per_length(&self) -> Real {
+            0.0
+        }
+    }
+
+    /// 25 steps at 10 per interval: two whole intervals, then the gas steps over exactly
+    /// the 5 steps the DEM advanced (it used to step a whole interval after them).
+    #[test]
+    fn a_last_partial_interval_steps_the_gas_over_what_the_dem_advanced() {
+        let grid = TubeGrid::new([0.0; 3], [0.0, 0.0, 1.0], 0.01, 0.1, 10, 1, 1);
+        let zeros = vec![0.0; grid.len()];
+        let spans = std::rc::Rc::new(std::cell::RefCell::new(Vec::new()));
+        let gas = Spans {
+            grid,
+            spans: spans.clone(),
+            zeros,
+        };
+        let dt = 1e-5;
+        let mut c = Coupler::new(
+            Box::new(gas),
+            Arc::new(DarcyVolumeForce),
+            10,
+            dt,
+            Vec::new(),
+        );
+        let mut dem = Steps { dt, steps: 0 };
+        c.advance(&mut dem, 25).unwrap();
+        assert_eq!(dem.step_count(), 25);
+        let spans = spans.borrow().clone();
+        assert_eq!(spans, vec![10.0 * dt, 10.0 * dt, 5.0 * dt]);
+        let total: Real = spans.iter().sum();
+        assert!((total - dem.time()).abs() <= 1e-15 * dem.time());
+    }
+}

@@ -1,0 +1,58 @@
+//! The subcommands of the `plugflow` command line, one file each, and what they share.
+
+pub mod crosscheck;
+pub mod run;
+pub mod study;
+pub mod sweep;
+pub mod validate;
+
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+pub use plugflow::scene::Scene;
+
+/// The scene with its overrides and a positive `--duration`, or exit code 2 after saying
+/// what is wrong.
+pub fn checked_scene(
+    scene: &std::path::Path,
+    set: &[String],
+    duration: Option<f64>,
+) -> Result<Scene, ExitCode> {
+    if let Some(d) = duration {
+        if !(d.is_finite() && d > 0.0) {
+            eprintln!("error: --duration must be a positive number of seconds");
+            return Err(ExitCode::from(2));
+        }
+    }
+    // A scene passes with its own duration (so a short trial run of a long case is fine) or
+    // with `--duration`'s (so `--set output.settling_time=…` may point past the scene's end
+    // when the run goes that far); when neither passes, the error is the one for the run.
+    let loaded = match (Scene::load(scene, set), duration) {
+        (Ok(s), _) => Ok(s),
+        (Err(e), None) => Err(e),
+        (Err(_), Some(d)) => Scene::load(scene, &[set, &[format!("duration={d}")]].concat()),
+    };
+    loaded.map_err(|e| {
+        eprintln!("error: {e}");
+        ExitCode::from(2)
+    })
+}
+
+/// This executable, which sweeps, studies and crosschecks start once per variant.
+pub fn plugflow_exe() -> Result<PathBuf, ExitCode> {
+    std::env::current_exe().map_err(|e| {
+        eprintln!("error: cannot find the plugflow executable: {e}");
+        ExitCode::FAILURE
+    })
+}
+
+/// Every `--vary PATH=V1,V2,…`, or exit code 2 after saying which is malformed.
+pub fn parse_varies(vary: &[String]) -> Result<Vec<plugflow::sweep::Vary>, ExitCode> {
+    vary.iter()
+        .map(|v| plugflow::sweep::parse_vary(v))
+        .collect::<Result<Vec<_>, _>>()
+        .map_err(|e| {
+            eprintln!("error: {e}");
+            ExitCode::from(2)
+        })
+}

@@ -1,0 +1,132 @@
+//! `plugflow run`.
+
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+use clap::Args;
+
+use plugflow::run::{run, RunError, RunOptions};
+use plugflow::summary::Summary;
+
+use super::*;
+
+/// The arguments of `plugflow run` (documented on the subcommand).
+#[derive(Args)]
+pub struct RunArgs {
+    /// Scene file (TOML).
+    pub scene: PathBuf,
+    /// Output folder (default results/<scene name>/).
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+    /// Simulated time, s (overrides the scene's `duration`).
+    #[arg(long)]
+    pub duration: Option<f64>,
+    /// Override a scene field: --set dem.dt=5e-6 (repeatable).
+    #[arg(long = "set", value_name = "PATH=VALUE")]
+    pub set: Vec<String>,
+    /// No progress bar.
+    #[arg(long)]
+    pub quiet: bool,
+}
+
+pub fn main(a: RunArgs) -> ExitCode {
+    let RunArgs {
+        scene,
+        out,
+        duration,
+        set,
+        quiet,
+    } = a;
+    let s = match checked_scene(&scene, &set, duration) {
+        Ok(s) => s,
+        Err(code) => return code,
+    };
+    let opts = RunOptions {
+        out_dir: out,
+        duration,
+        progress: !quiet,
+    };
+    // Ctrl-C / SIGTERM: end at the next sample with every output written. (A second
+    // signal while it finishes changes nothing; failing to install it only loses this.)
+    if let Err(e) = ctrlc::set_handler(|| {
+        plugflow::run::INTERRUPT.store(true, std::sync::atomic::Ordering::Relaxed)
+    }) {
+        eprintln!("warning: no Ctrl-C handler ({e}); an interrupt will lose the summary");
+    }
+    match run(&s, &opts) {
+        Ok(outcome) => {
+            print_outcome(&outcome.summary, &outcome.out_dir);
+            ExitCode::SUCCESS
+        }
+        Err(RunError::Scene(e)) => {
+            eprintln!("error: {e}");
+            ExitCode::from(2)
+        }
+        Err(e @ RunError::Interrupted { .. }) => {
+            eprintln!("{e}");
+            ExitCode::from(130)
+        }
+        Err(e) => {
+            eprintln!("error: {e}");
+            ExitCode::FAILURE
+        }
+    }
+}
+
+/// The run's headline numbers on the terminal.
+fn print_outcome(sm: &Summary, out_dir: &std::path::Path) {
+    println!(
+        "done: {} s simulated in {:.1} s wall; {:.1} grains in tube (mean); outflow {:.3} kg/h; \
+         summary in {}",
+        sm.simulated_time_s,
+        sm.wall_time_s,
+        sm.particles_in_tube_mean,
+        sm.mass_outflow_kg_per_h.unwrap_or(0.0),
+        out_dir.join("summary.json").display()
+    );
+    if let Some(g) = &sm.gas {
+        println!(
+            "pressure drop {:.2} hPa/m (mean after the settling time)",
+            g.pressure_drop_hpa_per_m
+        );
+    }
+    let taps = sm.gas.as_ref().and_then(|g| g.pressure_taps.as_ref());
+    for tap in taps.and_then(|t| t.as_array()).into_iter().flatten() {
+        let mbar = |k: &str| {
+            tap[k]
+                .as_f64()
+                .map_or_else(|| "—".to_string(), |v| format!("{:.2}", v / 100.0))
+        };
+        println!(
+            "{} ({}–{} m): max {} mbar, min {} mbar, {} peaks (median {} mbar), troughs \
+             median {} mbar (after the settling time)",
+            tap["name"].as_str().unwrap_or("?"),
+            tap["from_m"],
+            tap["to_m"],
+            mbar("max_pa"),
+            mbar("min_pa"),
+            tap["peaks"],
+            mbar("peak_median_pa"),
+            mbar("trough_median_pa"),
+        );
+    }
+    if let Some(targets) = &sm.targets {
+        println!(
+            "{:<4} {:<42} {:>10} {:>8} {:>16}  inside",
+            "row", "what", "measured", "paper", "band"
+        );
+        for t in targets {
+            println!(
+                "{:<4} {:<42} {:>10} {:>8} {:>16}  {}",
+                t.id,
+                t.what,
+                t.measured
+                    .map(|m| format!("{m:.4}"))
+                    .unwrap_or_else(|| "—".into()),
+                format!("{}", t.paper),
+                format!("{}–{}", t.band[0], t.band[1]),
+                if t.inside { "yes" } else { "no" }
+            );
+        }
+    }
+}

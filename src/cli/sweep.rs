@@ -1,0 +1,96 @@
+//! `plugflow sweep`.
+
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+use clap::Args;
+
+use plugflow::sweep;
+
+use super::*;
+
+/// The arguments of `plugflow sweep` (documented on the subcommand).
+#[derive(Args)]
+pub struct SweepArgs {
+    /// Scene file (TOML).
+    pub scene: PathBuf,
+    /// A field and its values: --vary gas.superficial_velocity=0.5,0.75,1,2,4 (repeatable;
+    /// every combination runs).
+    #[arg(long = "vary", value_name = "PATH=V1,V2,...", required = true)]
+    pub vary: Vec<String>,
+    /// Output folder.
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+    /// Simulated time per variant, s.
+    #[arg(long)]
+    pub duration: Option<f64>,
+    /// Variants run at once (default: one per core).
+    #[arg(long)]
+    pub jobs: Option<usize>,
+    /// DEM threads per variant (default 1, so that the jobs fill the cores).
+    #[arg(long, default_value_t = 1)]
+    pub threads: usize,
+    /// Override a scene field in every variant (repeatable).
+    #[arg(long = "set", value_name = "PATH=VALUE")]
+    pub set: Vec<String>,
+}
+
+pub fn main(a: SweepArgs) -> ExitCode {
+    let SweepArgs {
+        scene,
+        vary,
+        out,
+        duration,
+        jobs,
+        threads,
+        set,
+    } = a;
+    let varies = match parse_varies(&vary) {
+        Ok(v) => v,
+        Err(code) => return code,
+    };
+    let base = match checked_scene(&scene, &set, duration) {
+        Ok(s) => s,
+        Err(code) => return code,
+    };
+    let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
+    let opts = sweep::SweepOptions {
+        out_dir: out
+            .unwrap_or_else(|| PathBuf::from("results").join(format!("{}_sweep", base.file.name))),
+        jobs: jobs.unwrap_or(cores).max(1),
+        duration,
+        set,
+        threads: threads.max(1),
+    };
+    let exe = match plugflow_exe() {
+        Ok(e) => e,
+        Err(code) => return code,
+    };
+    match sweep::sweep(&exe, &scene, &varies, &opts) {
+        Ok(rows) => {
+            let failed = rows
+                .iter()
+                .filter(|r| !r.as_ref().is_some_and(|r| r.completed()))
+                .count();
+            println!(
+                "sweep: {} variants ({} failed); {}",
+                rows.len(),
+                failed,
+                opts.out_dir.join("sweep.csv").display()
+            );
+            if failed == 0 {
+                ExitCode::SUCCESS
+            } else {
+                ExitCode::FAILURE
+            }
+        }
+        Err(e @ sweep::SweepError::Vary { .. }) | Err(e @ sweep::SweepError::Scene { .. }) => {
+            eprintln!("error: {e}");
+            ExitCode::from(2)
+        }
+        Err(e) => {
+            eprintln!("error: {e}");
+            ExitCode::FAILURE
+        }
+    }
+}

@@ -1,0 +1,233 @@
+//! A whole run's lifecycle: set the scene up (`crate::setup`), advance it sample interval
+//! by sample interval through the coupled step (`plugflow_coupling::Coupler::advance`),
+//! sample (`sampling.rs`), show progress, stop on a signal, and write `summary.json` and the
+//! figures (`report.rs`), also when the run fails part-way, with what it computed up to
+//! then. No physics lives here.
+
+mod report;
+mod sampling;
+
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use plugflow_coupling::{StepError, Verdict};
+
+use crate::output::hdf5::{Hdf5Output, RunMeta};
+use crate::output::vtk::VtkOutput;
+use crate::output::RunOutput;
+use crate::scene::schema::SnapshotFormat;
+use crate::scene::{Scene, SceneError};
+use crate::setup::{self, Setup};
+use crate::summary::Summary;
+use crate::Real;
+use report::{summarize, write_figures, Ending};
+use sampling::Sampling;
+
+/// Set (by the CLI's SIGINT/SIGTERM handler) to end the running run at its next sample,
+/// with every output written as for a finished run and the summary's status saying so.
+pub static INTERRUPT: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
+
+/// What can end a run.
+#[derive(Debug, thiserror::Error)]
+pub enum RunError {
+    /// Stopped on request (Ctrl-C, SIGTERM); the outputs hold the run up to then.
+    #[error("interrupted at t = {time:.6} s; outputs hold the run up to then")]
+    Interrupted { time: Real },
+    /// The scene is wrong.
+    #[error(transparent)]
+    Scene(#[from] SceneError),
+    /// The coupled step stopped: the engine (NaN, blow-up, engine failure) or the gas and
+    /// the exchange (NaN pressure, drag), with the time.
+    #[error(transparent)]
+    Step(#[from] StepError),
+    /// An output file (run.h5, VTK, figure) could not be written.
+    #[error(transparent)]
+    Output(#[from] crate::output::OutputError),
+    /// Output could not be written.
+    #[error("cannot write `{path}`: {source}")]
+    Io {
+        path: String,
+        source: std::io::Error,
+    },
+}
+
+/// How to run.
+#[derive(Debug, Clone, Default)]
+pub struct RunOptions {
+    /// Output folder (default `results/<scene name>/`).
+    pub out_dir: Option<PathBuf>,
+    /// Simulated time overriding the scene's, s.
+    pub duration: Option<Real>,
+    /// Show a progress bar on the terminal.
+    pub progress: bool,
+}
+
+/// Headline numbers of a finished run (also written to `summary.json`).
+#[derive(Debug, Clone)]
+pub struct RunOutcome {
+    /// The summary as written.
+    pub summary: Summary,
+    /// Where it was written.
+    pub out_dir: PathBuf,
+}
+
+/// Run a scene to its end.
+pub fn run(scene: &Scene, opts: &RunOptions) -> Result<RunOutcome, RunError> {
+    let Setup {
+        config: cfg,
+        engine: mut dem,
+        coupler: mut gas,
+    } = setup::build(scene)?;
+    let out_dir = opts
+        .out_dir
+        .clone()
+        .unwrap_or_else(|| scene.default_output_dir());
+    std::fs::create_dir_all(&out_dir).map_err(|source| RunError::Io {
+        path: out_dir.display().to_string(),
+        source,
+    })?;
+    let f = &scene.file;
+    let duration = opts.duration.unwrap_or(f.duration.si);
+    let dt = dem.time_step();
+    let total_steps = (duration / dt).round().max(1.0) as u64;
+    let mut per_sample = ((f.output.sample_interval.si / dt).round() as u64).max(1);
+    if let Some(g) = &gas {
+        // Sample on coupling boundaries.
+        per_sample = per_sample.div_ceil(g.substeps) * g.substeps;
+        if opts.progress {
+            for c in &g.checks {
+                eprintln!(
+                    "coupling check: {}: {:.4} (limit {:.4}) {:?}{}",
+                    c.name,
+                    c.value,
+                    c.limit,
+                    c.verdict,
+                    if c.verdict == Verdict::Ok {
+                        String::new()
+                    } else {
+                        format!(" — {}", c.advice)
+                    }
+                );
+            }
+        }
+    }
+    let bar = opts.progress.then(|| progress_bar(total_steps));
+    let wall = Instant::now();
+    let mut sampling = Sampling::new(scene, &cfg);
+    let snapshot_spec = f.output.snapshots.as_ref();
+    let wants = |fmt: SnapshotFormat| snapshot_spec.is_some_and(|s| s.formats.contains(&fmt));
+    let mut outputs: Vec<Box<dyn RunOutput>> = Vec::new();
+    outputs.push(Box::new(Hdf5Output::create(
+        &out_dir.join("run.h5"),
+        &RunMeta {
+            scene_text: &scene.text,
+            engine: dem.engine_name(),
+            engine_version: &dem.engine_version(),
+            z_slices: sampling.slice_centres(),
+            z_gas: gas.as_ref().map(|g| g.axial_positions()),
+            snapshots: wants(SnapshotFormat::Hdf5),
+        },
+    )?));
+    if wants(SnapshotFormat::Vtk) {
+        outputs.push(Box::new(VtkOutput::new(&out_dir)));
+    }
+    let samples_per_snapshot =
+        snapshot_spec.map(|s| ((s.interval.si / (per_sample as Real * dt)).round() as u64).max(1));
+    let mut samples_taken = 0u64;
+    let mut done = 0u64;
+    let mut failure = None;
+    while done < total_steps {
+        let n = per_sample.min(total_steps - done);
+        // The step: the coupled one with gas, the DEM's alone without.
+        let stepped = match gas.as_mut() {
+            Some(g) => g.advance(dem.as_mut(), n),
+            None => dem.advance(n).map_err(|source| StepError::Backend {
+                time: dem.time(),
+                source,
+            }),
+        };
+        if let Err(e) = stepped {
+            failure = Some(RunError::Step(e));
+            break;
+        }
+        done += n;
+        let snapshot_due = samples_per_snapshot.is_some_and(|k| samples_taken.is_multiple_of(k));
+        let seen = match sampling.sample(
+            &cfg,
+            dem.as_ref(),
+            gas.as_ref(),
+            dt,
+            &mut outputs,
+            snapshot_due,
+        ) {
+            Ok(seen) => seen,
+            Err(e) => {
+                failure = Some(RunError::Output(e));
+                break;
+            }
+        };
+        samples_taken += 1;
+        if INTERRUPT.load(std::sync::atomic::Ordering::Relaxed) {
+            failure = Some(RunError::Interrupted { time: dem.time() });
+            break;
+        }
+        if let Some(b) = &bar {
+            b.set_position(done);
+            b.set_message(format!(
+                "t = {:.3}/{:.3} s, {} grains in tube{}",
+                dem.time(),
+                duration,
+                seen.in_tube,
+                seen.pressure_drop
+                    .map(|d| format!(", Δp {:.1} hPa/m", d / 100.0))
+                    .unwrap_or_default()
+            ));
+        }
+    }
+    if let Some(b) = &bar {
+        b.finish_and_clear();
+    }
+    let summary = summarize(&Ending {
+        scene,
+        cfg: &cfg,
+        dem: dem.as_ref(),
+        gas: gas.as_ref(),
+        sampling: &sampling,
+        status: match &failure {
+            None => "completed".to_string(),
+            Some(e @ RunError::Interrupted { .. }) => e.to_string(),
+            Some(e) => format!("failed: {e}"),
+        },
+        wall_time: wall.elapsed().as_secs_f64(),
+    });
+    write_figures(&out_dir, &cfg, dem.as_ref(), gas.as_ref(), &sampling)?;
+    if let Some(pr) = &sampling.profiles {
+        let res = pr.result();
+        for o in outputs.iter_mut() {
+            o.finish(Some(&res))?;
+        }
+    }
+    write_summary(&out_dir.join("summary.json"), &summary)?;
+    match failure {
+        Some(e) => Err(e),
+        None => Ok(RunOutcome { summary, out_dir }),
+    }
+}
+
+fn progress_bar(total_steps: u64) -> indicatif::ProgressBar {
+    let b = indicatif::ProgressBar::new(total_steps);
+    b.set_style(
+        indicatif::ProgressStyle::with_template(
+            "{spinner} [{elapsed_precise}] {bar:30} {percent:>3}% ETA {eta} {msg}",
+        )
+        .expect("static template"),
+    );
+    b
+}
+
+fn write_summary(path: &Path, s: &Summary) -> Result<(), RunError> {
+    std::fs::write(path, s.to_json_pretty()).map_err(|source| RunError::Io {
+        path: path.display().to_string(),
+        source,
+    })
+}

@@ -1,0 +1,349 @@
+//! From a checked scene to the built-in engine's configuration ([`DemConfig`]): contact
+//! laws, time step and its stability limit, walls, box, inlet. Everything here can fail only
+//! with a field error. (The engine itself, `src/dem/`, knows no scene.)
+
+use crate::dem::config::{
+    open_cross_section, DemConfig, InitialConfig, InletConfig, LawSet, TangentialChoice,
+    TangentialSet, TimeStepReport, TubeGeometry,
+};
+use crate::dem::contact::{Hertz, Hooke};
+use crate::dem::placement::{perpendicular_basis, Region};
+use crate::dem::vec3::{add, normalized, scale};
+use crate::dem::walls::{Wall, WallShape};
+use crate::scene::{NormalLawName, Scene, SceneError, TangentialLawName, TubeEnd};
+use crate::Real;
+use std::f64::consts::PI;
+
+/// Derive the built-in engine's configuration from a checked scene.
+pub fn dem_config(scene: &Scene) -> Result<DemConfig, SceneError> {
+    let f = &scene.file;
+    let p = &f.particles;
+    let (dmin, dmax) = match p.diameter {
+        Some(d) => (d.si, d.si),
+        None => (
+            p.diameter_min.map(|q| q.si).unwrap_or(0.0),
+            p.diameter_max.map(|q| q.si).unwrap_or(0.0),
+        ),
+    };
+    let (rmin, rmax) = (0.5 * dmin, 0.5 * dmax);
+    let rho = p.density.si;
+    let mass = |r: Real| rho * 4.0 / 3.0 * PI * r * r * r;
+    let c = &f.contact;
+    let e_pp = c.restitution.0;
+    let e_pw = c.wall_restitution.map(|e| e.0).unwrap_or(e_pp);
+    let mu_pp = c.friction.0;
+    let mu_pw = c.wall_friction.map(|m| m.0).unwrap_or(mu_pp);
+    // One arm per law name: the tangential law is chosen once, for whichever normal law.
+    let tangential = match c.tangential {
+        TangentialLawName::History => TangentialChoice::History,
+        TangentialLawName::CoulombViscous => TangentialChoice::CoulombViscous {
+            gamma_t: c.tangential_damping.map(|g| g.si),
+        },
+    };
+    let mut laws = match c.normal {
+        NormalLawName::Hooke => {
+            let ratio = c
+                .tangential_stiffness_ratio
+                .map(|r| r.0)
+                .unwrap_or(2.0 / 7.0);
+            let kn = match (c.stiffness, c.contact_time) {
+                (Some(k), _) => k.si,
+                (None, Some(tc)) => {
+                    // Contact time given for two grains of the mean size.
+                    let m_mean = mass(0.25 * (dmin + dmax));
+                    Hooke::stiffness_for_contact_time(tc.si, 0.5 * m_mean, e_pp)
+                }
+                (None, None) => unreachable!("checked in scene::check"),
+            };
+            let (pp, pw) = (Hooke::new(kn, e_pp, ratio), Hooke::new(kn, e_pw, ratio));
+            LawSet::Hooke(TangentialSet::new(tangential, pp, pw, mu_pp, mu_pw))
+        }
+        NormalLawName::Hertz => {
+            let e_mod = c.youngs_modulus.map(|q| q.si).unwrap_or(0.0);
+            let nu = c.poisson_ratio.map(|q| q.0).unwrap_or(0.0);
+            let (pp, pw) = (Hertz::new(e_mod, nu, e_pp), Hertz::new(e_mod, nu, e_pw));
+            LawSet::Hertz(TangentialSet::new(tangential, pp, pw, mu_pp, mu_pw))
+        }
+    };
+    // Time step: the smallest grain pair collides fastest.
+    let v_max = f.dem.max_impact_velocity.si;
+    let m_small = mass(rmin);
+    let tc = laws.pair_contact_time(0.5 * m_small, 0.5 * rmin, v_max);
+    let mut limit = tc / 10.0;
+    let mut limit_reason = format!(
+        "contact time {tc:.3e} s of the smallest grain pair / 10 (a collision must span ≥ 10 steps)"
+    );
+    let mut rayleigh = None;
+    if c.normal == NormalLawName::Hertz {
+        let e_mod = c.youngs_modulus.map(|q| q.si).unwrap_or(0.0);
+        let nu = c.poisson_ratio.map(|q| q.0).unwrap_or(0.0);
+        let shear = e_mod / (2.0 * (1.0 + nu));
+        let t_r = PI * rmin * (rho / shear).sqrt() / (0.1631 * nu + 0.8766);
+        rayleigh = Some(t_r);
+        if 0.2 * t_r < limit {
+            limit = 0.2 * t_r;
+            limit_reason = format!("20 % of the Rayleigh time {t_r:.3e} s");
+        }
+    }
+    let (dt, derived) = match f.dem.dt {
+        Some(dt) => {
+            if dt.si > limit {
+                return Err(field_err(
+                    "dem.dt",
+                    format!(
+                        "{:.3e} s is above the stability limit {:.3e} s ({}); use a smaller \
+                         dt or leave it out to derive contact time / {}",
+                        dt.si, limit, limit_reason, f.dem.dt_fraction.0
+                    ),
+                ));
+            }
+            (dt.si, false)
+        }
+        None => ((tc / f.dem.dt_fraction.0).min(limit), true),
+    };
+    let skin = f.dem.skin.map(|s| s.si).unwrap_or(0.1 * dmax);
+    let gravity = [f.gravity[0].si, f.gravity[1].si, f.gravity[2].si];
+    // Geometry.
+    let mut walls = Vec::new();
+    let (mut box_lo, mut box_hi);
+    let mut tube_geom = None;
+    let removes;
+    if let Some(t) = &f.tube {
+        let axis = normalized([t.axis[0].0, t.axis[1].0, t.axis[2].0]);
+        let origin = [t.origin[0].si, t.origin[1].si, t.origin[2].si];
+        let radius = 0.5 * t.diameter.si;
+        let length = t.length.si;
+        walls.push(Wall {
+            name: "tube".into(),
+            shape: WallShape::Cylinder {
+                point: origin,
+                axis,
+                radius,
+            },
+            friction: None,
+        });
+        if t.inlet_end == TubeEnd::Closed {
+            walls.push(Wall {
+                name: "inlet_cap".into(),
+                shape: WallShape::Plane {
+                    point: origin,
+                    normal: axis,
+                },
+                friction: None,
+            });
+        }
+        if t.outlet_end == TubeEnd::Closed {
+            walls.push(Wall {
+                name: "outlet_cap".into(),
+                shape: WallShape::Plane {
+                    point: add(origin, scale(axis, length)),
+                    normal: scale(axis, -1.0),
+                },
+                friction: None,
+            });
+        }
+        let slab_half = match t.slab {
+            None => None,
+            Some(w) if w.si < dmax || w.si >= 2.0 * radius => {
+                return Err(field_err(
+                    "tube.slab",
+                    format!(
+                        "{:.4e} m must lie between the largest grain's diameter {:.4e} m and \
+                         the tube's {:.4e} m",
+                        w.si,
+                        dmax,
+                        2.0 * radius
+                    ),
+                ))
+            }
+            Some(w) => {
+                let (e1, _) = perpendicular_basis(axis);
+                let h = 0.5 * w.si;
+                let slab_friction = t.slab_friction.map_or(0.0, |m| m.0);
+                for (name, sign) in [("slab_front", 1.0), ("slab_back", -1.0)] {
+                    walls.push(Wall {
+                        name: name.into(),
+                        shape: WallShape::Plane {
+                            point: add(origin, scale(e1, sign * h)),
+                            normal: scale(e1, -sign),
+                        },
+                        friction: Some(slab_friction),
+                    });
+                }
+                Some(h)
+            }
+        };
+        removes = t.inlet_end == TubeEnd::Open || t.outlet_end == TubeEnd::Open;
+        // Box around the tube with one diameter of margin at the ends.
+        let end = add(origin, scale(axis, length));
+        box_lo = [0.0; 3];
+        box_hi = [0.0; 3];
+        // (A quasi-2D slab spans at most h |e1_k| + R |e2_k| along k: a box that tight
+        // keeps the neighbour grid small.)
+        let (e1, e2) = perpendicular_basis(axis);
+        for k in 0..3 {
+            let mut half = radius * (1.0 - axis[k] * axis[k]).max(0.0).sqrt();
+            if let Some(h) = slab_half {
+                half = half.min(h * e1[k].abs() + radius * e2[k].abs());
+            }
+            box_lo[k] = origin[k].min(end[k]) - half - dmax;
+            box_hi[k] = origin[k].max(end[k]) + half + dmax;
+        }
+        tube_geom = Some(TubeGeometry {
+            origin,
+            axis,
+            radius,
+            length,
+            inlet_open: t.inlet_end == TubeEnd::Open,
+            outlet_open: t.outlet_end == TubeEnd::Open,
+            slab_half,
+        });
+    } else {
+        let b = f.domain.as_ref().expect("checked: tube or domain");
+        box_lo = b.min.map(|q| q.si);
+        box_hi = b.max.map(|q| q.si);
+        removes = true;
+    }
+    for w in &f.walls {
+        walls.push(Wall {
+            name: w.name.clone(),
+            shape: WallShape::Plane {
+                point: w.point.map(|q| q.si),
+                normal: normalized(w.normal.map(|q| q.0)),
+            },
+            friction: None,
+        });
+    }
+    laws.attach_walls(&walls);
+    // Inlet.
+    let inlet = match (&f.inlet, &tube_geom) {
+        (Some(i), Some(t)) => {
+            let v_mean = 4.0 / 3.0 * PI * (0.5 * (rmin + rmax)).powi(3);
+            let m_mean = rho * v_mean;
+            let rate = match (i.mass_flow, i.rate) {
+                (Some(m), _) => m.si / m_mean,
+                (None, Some(r)) => r.si,
+                _ => unreachable!("checked in scene::check"),
+            };
+            if i.velocity.si <= 0.0 {
+                return Err(field_err(
+                    "inlet.velocity",
+                    "must be > 0: the feed moves along the tube axis, into the tube",
+                ));
+            }
+            let slab = i.slab_length.map(|q| q.si).unwrap_or(3.0 * dmax);
+            if slab >= t.length {
+                return Err(field_err(
+                    "inlet.slab_length",
+                    "must be shorter than the tube",
+                ));
+            }
+            let area = open_cross_section(t.radius, t.slab_half);
+            let porosity = i.porosity.0;
+            let batch_target = ((1.0 - porosity) * area * slab / v_mean).floor().max(1.0) as usize;
+            // Densest feed possible: random close packing (64 % solids) moving at the
+            // feed velocity fills area × velocity per second.
+            let capacity = 0.64 * area * i.velocity.si / v_mean;
+            if rate > capacity {
+                return Err(field_err(
+                    if i.mass_flow.is_some() {
+                        "inlet.mass_flow"
+                    } else {
+                        "inlet.rate"
+                    },
+                    format!(
+                        "{rate:.4e} grains/s cannot fit the tube: at {} m/s even random \
+                         close packing carries at most {capacity:.4e} grains/s ({:.4e} kg/h) \
+                         through the {:.4e} m² cross-section",
+                        i.velocity.si,
+                        capacity * m_mean * 3600.0,
+                        area
+                    ),
+                ));
+            }
+            Some(InletConfig {
+                rate,
+                velocity: i.velocity.si,
+                slab_length: slab,
+                batch_target,
+                porosity,
+                until: match i.until {
+                    Some(u) if u.si < 0.0 => return Err(field_err("inlet.until", "must be ≥ 0 s")),
+                    u => u.map(|q| q.si),
+                },
+            })
+        }
+        _ => None,
+    };
+    let initial = match &f.initial {
+        Some(ini) => {
+            let region = match &tube_geom {
+                Some(t) => {
+                    if ini.from.si < 0.0 || ini.to.si > t.length {
+                        return Err(field_err(
+                            "initial.to",
+                            format!(
+                                "the stretch [{}, {}] m must lie inside the tube [0, {}] m",
+                                ini.from.si, ini.to.si, t.length
+                            ),
+                        ));
+                    }
+                    Region::TubeStretch {
+                        origin: t.origin,
+                        axis: t.axis,
+                        radius: t.radius,
+                        slab_half: t.slab_half,
+                        from: ini.from.si,
+                        to: ini.to.si,
+                    }
+                }
+                None => {
+                    let mut lo = box_lo;
+                    let mut hi = box_hi;
+                    lo[2] = ini.from.si;
+                    hi[2] = ini.to.si;
+                    Region::Box { lo, hi }
+                }
+            };
+            Some(InitialConfig {
+                count: ini.count,
+                region,
+                velocity: ini
+                    .velocity
+                    .map(|v| [v[0].si, v[1].si, v[2].si])
+                    .unwrap_or([0.0; 3]),
+            })
+        }
+        None => None,
+    };
+    Ok(DemConfig {
+        dt,
+        dt_report: TimeStepReport {
+            contact_time: tc,
+            rayleigh_time: rayleigh,
+            limit,
+            limit_reason,
+            derived,
+        },
+        rotation: f.dem.rotation,
+        skin,
+        threads: f.dem.threads,
+        gravity,
+        walls,
+        laws,
+        box_lo,
+        box_hi,
+        tube: tube_geom,
+        inlet,
+        initial,
+        radius_min: rmin,
+        radius_max: rmax,
+        density: rho,
+        seed: f.seed,
+        removes_grains: removes,
+        max_impact_velocity: v_max,
+    })
+}
+fn field_err(field: impl Into<String>, reason: impl Into<String>) -> SceneError {
+    SceneError::field(field, reason)
+}

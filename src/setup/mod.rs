@@ -1,0 +1,64 @@
+//! The setup layer: a checked [`Scene`] becomes the engine's configuration, the engine and
+//! the coupler. `validate`, `run`, `crosscheck`, `sweep` and `study` all go through here,
+//! so a scene that validates is a scene that runs.
+//!
+//! - [`dem_config`] (`dem.rs`): the built-in engine's configuration (laws, time step and its
+//!   limit, walls, inlet); the external engines map the same configuration.
+//! - [`coupling_from_scene`] (`coupling.rs`): gas solver, drag law (from the registry in
+//!   `plugflow_coupling::drag`), coupling interval and the checks made before a run.
+//! - [`build_backend`], [`check_engine`] (`engine.rs`): the engine `dem.engine` names, built,
+//!   or asked whether it takes the scene without starting it.
+
+pub mod coupling;
+pub mod dem;
+pub mod engine;
+
+pub use coupling::{check_json, coupling_checks, coupling_from_scene};
+pub use dem::dem_config;
+pub use engine::{build_backend, check_engine};
+
+use plugflow_coupling::{Coupler, DemBackend};
+
+use crate::dem::DemConfig;
+use crate::scene::{Scene, SceneError};
+
+/// What a scene sets up, before any engine starts: the configuration and the coupler.
+pub struct Prepared {
+    /// The built-in engine's configuration (what the external engines map).
+    pub config: DemConfig,
+    /// The gas coupling (None without `[gas]`).
+    pub coupler: Option<Coupler>,
+}
+
+/// A scene set up to run: the engine started, the coupler beside it.
+pub struct Setup {
+    pub config: DemConfig,
+    pub engine: Box<dyn DemBackend>,
+    pub coupler: Option<Coupler>,
+}
+
+/// The configuration and the coupler of a scene (no engine started).
+pub fn prepare(scene: &Scene) -> Result<Prepared, SceneError> {
+    let config = dem_config(scene)?;
+    let coupler = coupling_from_scene(scene, &config)?;
+    Ok(Prepared { config, coupler })
+}
+
+/// Everything `plugflow validate` checks: the scene's own checks (done by loading it), the
+/// configuration, the coupling checks, and the chosen engine's refusals.
+pub fn validate(scene: &Scene) -> Result<Prepared, SceneError> {
+    let prepared = prepare(scene)?;
+    check_engine(scene, &prepared.config)?;
+    Ok(prepared)
+}
+
+/// A scene ready to run: configuration, engine, coupler.
+pub fn build(scene: &Scene) -> Result<Setup, SceneError> {
+    let Prepared { config, coupler } = prepare(scene)?;
+    let engine = build_backend(scene, &config)?;
+    Ok(Setup {
+        config,
+        engine,
+        coupler,
+    })
+}

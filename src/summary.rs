@@ -1,0 +1,346 @@
+//! `summary.json`, typed: one struct written by `run` and read by `sweep`, `study`,
+//! `crosscheck` and the targets, so a key is spelled once and a typo does not compile.
+//! The headline numbers that reports tabulate are named by [`Number`].
+//!
+//! Keys that do not apply to a run are absent (no gas: no `pressure_drop_hpa_per_m`); a
+//! key that applies but was not measured is `null` (an engine without flow counters: no
+//! `mass_outflow_kg_per_h`), never 0.
+
+use std::collections::BTreeMap;
+
+use serde::{Deserialize, Deserializer, Serialize};
+use serde_json::Value;
+
+use crate::Real;
+
+/// A number that JSON may hold as `null` (serde_json writes NaN and infinities as `null`):
+/// read back as NaN, so a failed run's summary still parses.
+fn nullable<'de, D: Deserializer<'de>>(d: D) -> Result<Real, D::Error> {
+    Ok(Option::<Real>::deserialize(d)?.unwrap_or(Real::NAN))
+}
+
+/// The whole summary of a run.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct Summary {
+    /// `completed`, `interrupted at t = …`, or `failed: …` naming the step and grain.
+    pub status: String,
+    /// The scene's name.
+    pub scene: String,
+    pub engine: String,
+    pub engine_version: String,
+    #[serde(deserialize_with = "nullable")]
+    pub simulated_time_s: Real,
+    #[serde(deserialize_with = "nullable")]
+    pub wall_time_s: Real,
+    pub steps: u64,
+    #[serde(deserialize_with = "nullable")]
+    pub dt_s: Real,
+    #[serde(deserialize_with = "nullable")]
+    pub dt_limit_s: Real,
+    pub dt_limit_reason: String,
+    #[serde(deserialize_with = "nullable")]
+    pub contact_time_s: Real,
+    #[serde(deserialize_with = "nullable")]
+    pub dt_fraction_of_limit: Real,
+    /// Wall time of each timed stage (the engine's and the coupler's), s.
+    pub stage_times_s: BTreeMap<String, Real>,
+    #[serde(deserialize_with = "nullable")]
+    pub settling_time_s: Real,
+    /// Mean grains in the tube after the settling time.
+    #[serde(deserialize_with = "nullable")]
+    pub particles_in_tube_mean: Real,
+    pub particles_final: usize,
+    /// None: the engine keeps no flow counters.
+    pub mass_outflow_kg_per_h: Option<Real>,
+    pub mass_inflow_kg_per_h: Option<Real>,
+    pub grains_fed: Option<u64>,
+    pub grains_out: Option<u64>,
+    pub grains_lost: Option<u64>,
+    pub threads: usize,
+    /// What the numbers are worth.
+    pub accuracy: Accuracy,
+    /// Plug statistics at mid tube (scenes with a tube).
+    #[serde(flatten, skip_serializing_if = "Option::is_none")]
+    pub plugs: Option<PlugSummary>,
+    /// The gas (scenes with `[gas]`).
+    #[serde(flatten, skip_serializing_if = "Option::is_none")]
+    pub gas: Option<GasSummary>,
+    /// Profiles averaged over the selected plugs (scenes with a tube).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub profiles: Option<Value>,
+    /// TARGETS.md rows the scene reproduces: measured beside paper, band and verdict.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub targets: Option<Vec<TargetRow>>,
+    /// The engine's own diagnostics (neighbour builds, inlet backlog, …): every key not
+    /// named above (last, so that the named groups take theirs first when read).
+    #[serde(flatten)]
+    pub diagnostics: BTreeMap<String, Value>,
+}
+
+/// The accuracy block.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct Accuracy {
+    #[serde(deserialize_with = "nullable")]
+    pub dem_dt_s: Real,
+    #[serde(deserialize_with = "nullable")]
+    pub dem_dt_limit_s: Real,
+    pub dem_dt_limit_reason: String,
+    #[serde(deserialize_with = "nullable")]
+    pub dem_dt_fraction_of_limit: Real,
+    /// With gas: step doubling, mass balance, clamps, coupling checks.
+    #[serde(flatten, skip_serializing_if = "Option::is_none")]
+    pub gas: Option<GasAccuracy>,
+}
+
+/// The gas's part of the accuracy block.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct GasAccuracy {
+    pub gas_step_doubling_checks: u64,
+    /// None: no estimate was taken (a run of fewer than 100 exchanges).
+    pub gas_step_doubling_rel_max: Option<Real>,
+    pub gas_step_doubling_rel_mean: Option<Real>,
+    #[serde(deserialize_with = "nullable")]
+    pub gas_mass_error_rel_max: Real,
+    pub porosity_clamped_node_steps: u64,
+    pub porosity_clamped_low_node_steps: u64,
+    pub porosity_clamped_high_node_steps: u64,
+    #[serde(deserialize_with = "nullable")]
+    pub porosity_clamped_fraction: Real,
+    pub coupling_checks: Vec<CheckRow>,
+}
+
+/// One coupling check as reported.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct CheckRow {
+    pub name: String,
+    #[serde(deserialize_with = "nullable")]
+    pub value: Real,
+    #[serde(deserialize_with = "nullable")]
+    pub limit: Real,
+    /// `ok`, `warning` or `refused`.
+    pub verdict: String,
+    pub advice: String,
+}
+
+/// Plug statistics: medians over the plugs seen at mid tube (None: no plug seen).
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct PlugSummary {
+    /// Tracked plug velocity, m/s.
+    pub plug_velocity_m_s: Option<Real>,
+    /// The largest granular velocity in a plug (the seeds' reading), m/s.
+    pub plug_max_granular_velocity_m_s: Option<Real>,
+    pub plug_length_m: Option<Real>,
+    pub plug_min_porosity: Option<Real>,
+    #[serde(deserialize_with = "nullable")]
+    pub plug_rate_per_s: Real,
+    pub plugs_observed_mid_tube: usize,
+}
+
+/// The gas's headline numbers.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct GasSummary {
+    /// Mean −ΔP/L after the settling time, hPa/m.
+    #[serde(deserialize_with = "nullable")]
+    pub pressure_drop_hpa_per_m: Real,
+    #[serde(deserialize_with = "nullable")]
+    pub gas_mass_error_rel: Real,
+    #[serde(deserialize_with = "nullable")]
+    pub porosity_clamped_fraction: Real,
+    pub coupling_checks: Vec<CheckRow>,
+    #[serde(deserialize_with = "nullable")]
+    pub coupling_interval_s: Real,
+    /// Differential pressure transducers (scenes with `output.pressure_taps`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub pressure_taps: Option<Value>,
+    pub gas_model: String,
+}
+
+/// One TARGETS.md row as measured.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct TargetRow {
+    pub id: String,
+    pub what: String,
+    pub measured: Option<Real>,
+    pub paper: Real,
+    pub band: [Real; 2],
+    pub ratio: Option<Real>,
+    pub inside: bool,
+}
+
+/// The headline numbers reports tabulate, each one key of the summary.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Number {
+    PressureDrop,
+    ParticlesInTube,
+    MassOutflow,
+    PlugVelocity,
+    PlugMaxGranularVelocity,
+    PlugLength,
+    PlugMinPorosity,
+    PlugRate,
+    SimulatedTime,
+    WallTime,
+}
+
+impl Number {
+    /// Every number, in the order of the summary.
+    pub const ALL: [Number; 10] = [
+        Number::PressureDrop,
+        Number::ParticlesInTube,
+        Number::MassOutflow,
+        Number::PlugVelocity,
+        Number::PlugMaxGranularVelocity,
+        Number::PlugLength,
+        Number::PlugMinPorosity,
+        Number::PlugRate,
+        Number::SimulatedTime,
+        Number::WallTime,
+    ];
+
+    /// Its key in `summary.json` (and the column name in sweep.csv, study.csv).
+    pub const fn key(self) -> &'static str {
+        match self {
+            Number::PressureDrop => "pressure_drop_hpa_per_m",
+            Number::ParticlesInTube => "particles_in_tube_mean",
+            Number::MassOutflow => "mass_outflow_kg_per_h",
+            Number::PlugVelocity => "plug_velocity_m_s",
+            Number::PlugMaxGranularVelocity => "plug_max_granular_velocity_m_s",
+            Number::PlugLength => "plug_length_m",
+            Number::PlugMinPorosity => "plug_min_porosity",
+            Number::PlugRate => "plug_rate_per_s",
+            Number::SimulatedTime => "simulated_time_s",
+            Number::WallTime => "wall_time_s",
+        }
+    }
+
+    /// The number named by `key`, or an error listing the known keys.
+    pub fn from_key(key: &str) -> Result<Number, String> {
+        Number::ALL
+            .into_iter()
+            .find(|n| n.key() == key)
+            .ok_or_else(|| {
+                format!(
+                    "`{key}` is not a number of the summary (known: {})",
+                    Number::ALL.map(|n| n.key()).join(", ")
+                )
+            })
+    }
+
+    /// Its value in `s`; None where the run did not measure it (no gas, no plug, no flow
+    /// counters) or it is not finite.
+    pub fn of(self, s: &Summary) -> Option<Real> {
+        let plugs = s.plugs.as_ref();
+        let v = match self {
+            Number::PressureDrop => s.gas.as_ref().map(|g| g.pressure_drop_hpa_per_m),
+            Number::ParticlesInTube => Some(s.particles_in_tube_mean),
+            Number::MassOutflow => s.mass_outflow_kg_per_h,
+            Number::PlugVelocity => plugs.and_then(|p| p.plug_velocity_m_s),
+            Number::PlugMaxGranularVelocity => plugs.and_then(|p| p.plug_max_granular_velocity_m_s),
+            Number::PlugLength => plugs.and_then(|p| p.plug_length_m),
+            Number::PlugMinPorosity => plugs.and_then(|p| p.plug_min_porosity),
+            Number::PlugRate => plugs.map(|p| p.plug_rate_per_s),
+            Number::SimulatedTime => Some(s.simulated_time_s),
+            Number::WallTime => Some(s.wall_time_s),
+        };
+        v.filter(|x| x.is_finite())
+    }
+}
+
+impl std::fmt::Display for Number {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.key())
+    }
+}
+
+/// Errors of reading a summary back.
+#[derive(Debug, thiserror::Error)]
+pub enum SummaryError {
+    #[error("cannot read `{path}`: {source}")]
+    Io {
+        path: String,
+        source: std::io::Error,
+    },
+    #[error("`{path}` is not a plugflow summary: {source}")]
+    Parse {
+        path: String,
+        source: serde_json::Error,
+    },
+}
+
+impl Summary {
+    /// Read `summary.json`.
+    pub fn read(path: &std::path::Path) -> Result<Summary, SummaryError> {
+        let text = std::fs::read_to_string(path).map_err(|source| SummaryError::Io {
+            path: path.display().to_string(),
+            source,
+        })?;
+        serde_json::from_str(&text).map_err(|source| SummaryError::Parse {
+            path: path.display().to_string(),
+            source,
+        })
+    }
+
+    /// The summary as JSON text (as written to `summary.json`).
+    pub fn to_json_pretty(&self) -> String {
+        serde_json::to_string_pretty(self).expect("a summary serialises")
+    }
+
+    /// True for a run that went to its end.
+    pub fn completed(&self) -> bool {
+        self.status == "completed"
+    }
+}
+
+/// A summary of a run that took `wall_time_s` and measured only `pressure_drop` (hPa/m),
+/// spending half its time in the gas: the study's and the sweep's unit tests.
+#[cfg(test)]
+pub(crate) fn test_summary(
+    status: &str,
+    wall_time_s: Real,
+    pressure_drop: Option<Real>,
+) -> Summary {
+    Summary {
+        status: status.into(),
+        scene: "test".into(),
+        engine: "native".into(),
+        engine_version: String::new(),
+        simulated_time_s: 1.0,
+        wall_time_s,
+        steps: 1,
+        dt_s: 1e-6,
+        dt_limit_s: 1e-5,
+        dt_limit_reason: String::new(),
+        contact_time_s: 1e-4,
+        dt_fraction_of_limit: 0.1,
+        stage_times_s: [("gas".to_string(), wall_time_s / 2.0)].into(),
+        settling_time_s: 0.0,
+        particles_in_tube_mean: 0.0,
+        particles_final: 0,
+        mass_outflow_kg_per_h: None,
+        mass_inflow_kg_per_h: None,
+        grains_fed: None,
+        grains_out: None,
+        grains_lost: None,
+        threads: 1,
+        accuracy: Accuracy {
+            dem_dt_s: 1e-6,
+            dem_dt_limit_s: 1e-5,
+            dem_dt_limit_reason: String::new(),
+            dem_dt_fraction_of_limit: 0.1,
+            gas: None,
+        },
+        plugs: None,
+        gas: pressure_drop.map(|dp| GasSummary {
+            pressure_drop_hpa_per_m: dp,
+            gas_mass_error_rel: 0.0,
+            porosity_clamped_fraction: 0.0,
+            coupling_checks: Vec::new(),
+            coupling_interval_s: 1e-5,
+            pressure_taps: None,
+            gas_model: "darcy".into(),
+        }),
+        profiles: None,
+        targets: None,
+        diagnostics: BTreeMap::new(),
+    }
+}
