@@ -222,6 +222,22 @@ pub fn study(
         path: p.display().to_string(),
         reason: e.to_string(),
     };
+    let (csv, md) = tables(scene_path, varies, opts, &result);
+    let csv_path = dir.join("study.csv");
+    std::fs::write(&csv_path, csv).map_err(|e| io(&csv_path, &e))?;
+    let md_path = dir.join("study.md");
+    std::fs::write(&md_path, md).map_err(|e| io(&md_path, &e))?;
+    draw(dir, opts, &result).map_err(|e| io(dir, &e))?;
+    Ok(result)
+}
+
+/// study.csv and study.md.
+fn tables(
+    scene_path: &Path,
+    varies: &[Vary],
+    opts: &StudyOptions,
+    result: &StudyResult,
+) -> (String, String) {
     // Stage names present in any row, in first-seen order.
     let mut stage_names: Vec<String> = Vec::new();
     for r in &result.rows {
@@ -330,10 +346,15 @@ pub fn study(
             (None, _) => "No target error given (`--target-error`).".to_string(),
         }
     ));
-    let csv_path = dir.join("study.csv");
-    std::fs::write(&csv_path, csv).map_err(|e| io(&csv_path, &e))?;
-    let md_path = dir.join("study.md");
-    std::fs::write(&md_path, md).map_err(|e| io(&md_path, &e))?;
+    (csv, md)
+}
+
+/// study.png: log10 error against log10 wall time, the Pareto front and the target.
+fn draw(
+    dir: &Path,
+    opts: &StudyOptions,
+    result: &StudyResult,
+) -> Result<(), crate::output::OutputError> {
     // log10 error against log10 wall time (zero errors cannot be drawn on log axes).
     let point = |i: usize| -> Option<(Real, Real)> {
         let r = &result.rows[i];
@@ -375,8 +396,6 @@ pub fn study(
         800,
         560,
     )
-    .map_err(|e| io(dir, &e))?;
-    Ok(result)
 }
 
 #[cfg(test)]

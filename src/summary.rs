@@ -344,3 +344,83 @@ pub(crate) fn test_summary(
         diagnostics: BTreeMap::new(),
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A summary with every optional group present (a tube, gas, taps, profiles, targets).
+    fn full() -> Summary {
+        let mut s = test_summary("completed", 1.0, Some(30.0));
+        if let Some(g) = s.gas.as_mut() {
+            g.pressure_taps = Some(serde_json::json!([]));
+        }
+        s.plugs = Some(PlugSummary {
+            plug_velocity_m_s: Some(0.2),
+            plug_max_granular_velocity_m_s: Some(0.3),
+            plug_length_m: Some(0.02),
+            plug_min_porosity: Some(0.45),
+            plug_rate_per_s: 1.0,
+            plugs_observed_mid_tube: 3,
+        });
+        s.profiles = Some(serde_json::json!({}));
+        s.targets = Some(Vec::new());
+        s
+    }
+
+    /// README's key table lists exactly the summary's top-level keys (the engine's
+    /// diagnostics aside, which the paragraph under the table names).
+    #[test]
+    fn readme_lists_every_summary_key() {
+        let readme = include_str!("../README.md");
+        let start = readme
+            .find("### summary.json")
+            .expect("README has the section");
+        let section = &readme[start..];
+        let end = section[4..].find("\n#").map_or(section.len(), |e| e + 4);
+        let mut listed: Vec<String> = section[..end]
+            .lines()
+            .filter(|l| l.starts_with("| `"))
+            .flat_map(|l| {
+                let first = l.split('|').nth(1).unwrap_or("");
+                first
+                    .split('`')
+                    .enumerate()
+                    .filter(|(k, _)| k % 2 == 1)
+                    .map(|(_, key)| key.to_string())
+                    .collect::<Vec<_>>()
+            })
+            .collect();
+        listed.sort();
+        let value = serde_json::to_value(full()).unwrap();
+        let mut keys: Vec<String> = value.as_object().unwrap().keys().cloned().collect();
+        keys.sort();
+        assert_eq!(
+            listed, keys,
+            "README's summary.json table against the struct"
+        );
+    }
+
+    /// What is written reads back as the same summary; NaN (written as null) reads as NaN.
+    #[test]
+    fn a_summary_reads_back_and_null_numbers_read_as_nan() {
+        let s = full();
+        let text = s.to_json_pretty();
+        let back: Summary = serde_json::from_str(&text).unwrap();
+        assert_eq!(
+            serde_json::to_value(&back).unwrap(),
+            serde_json::to_value(&s).unwrap()
+        );
+        let mut failed = s.clone();
+        failed.particles_in_tube_mean = Real::NAN;
+        let back: Summary = serde_json::from_str(&failed.to_json_pretty()).unwrap();
+        assert!(back.particles_in_tube_mean.is_nan());
+        assert_eq!(Number::ParticlesInTube.of(&back), None);
+        assert_eq!(Number::PressureDrop.of(&back), Some(30.0));
+        // Every number's key names itself, and only itself.
+        for n in Number::ALL {
+            assert_eq!(Number::from_key(n.key()), Ok(n));
+        }
+        assert!(Number::from_key("pressure_drop").is_err());
+    }
+}

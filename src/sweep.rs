@@ -137,8 +137,8 @@ pub struct VariantRun {
     pub exit: Option<i32>,
 }
 
-/// Run every combination of `varies` (each variant's scene checked before the first
-/// starts), `opts.jobs` processes at a time, each into `<out>/<k>/` with its log in
+/// Run every combination of `varies` (each variant validated as `plugflow validate` does
+/// before the first starts), `opts.jobs` processes at a time, each into `<out>/<k>/` with its log in
 /// `<out>/<k>.log`; the variants in combination order.
 pub fn run_variants(
     exe: &Path,
@@ -158,10 +158,14 @@ pub fn run_variants(
         set.push(format!("dem.threads={}", opts.threads));
         set.extend(v.iter().map(|(p, x)| set_arg(p, x)));
         let label: Vec<String> = v.iter().map(|(p, x)| format!("{p}={x}")).collect();
-        Scene::load(scene_path, &set).map_err(|source| SweepError::Scene {
-            variant: label.join(" "),
-            source,
-        })?;
+        // Through the setup layer, as `plugflow validate`: the coupling checks and the
+        // chosen engine's refusals too, not only the scene's own.
+        Scene::load(scene_path, &set)
+            .and_then(|s| crate::setup::validate(&s).map(drop))
+            .map_err(|source| SweepError::Scene {
+                variant: label.join(" "),
+                source,
+            })?;
         sets.push((set, label));
     }
     std::fs::create_dir_all(&opts.out_dir).map_err(|e| io(&opts.out_dir, &e))?;

@@ -185,3 +185,32 @@ fn g_isolated_engine_death_is_an_error_not_a_crash() {
     assert!(!t.is_empty());
     std::fs::remove_dir_all(&out).ok();
 }
+
+/// `plugflow validate` asks the chosen engine without starting it (`pf_dem_check`): a scene
+/// LIGGGHTS cannot take (a feed valve closing, `inlet.until`) is refused by `validate` with
+/// the field and reason; the case itself validates on LIGGGHTS.
+#[test]
+fn h_validate_runs_liggghts_s_own_refusals() {
+    shim();
+    let case = Path::new(env!("CARGO_MANIFEST_DIR")).join("cases/vertical_plug.toml");
+    let (code, text) = plugflow(&[
+        "validate",
+        case.to_str().unwrap(),
+        "--set",
+        "dem.engine=liggghts",
+        "--set",
+        "inlet.until=1 s",
+    ]);
+    assert_eq!(code, 2, "{text}");
+    assert!(
+        text.contains("`liggghts` engine refuses") && text.contains("inlet.until"),
+        "{text}"
+    );
+    let (code, text) = plugflow(&[
+        "validate",
+        case.to_str().unwrap(),
+        "--set",
+        "dem.engine=liggghts",
+    ]);
+    assert_eq!(code, 0, "{text}");
+}

@@ -210,3 +210,34 @@ fn crosscheck_on_three_engines() {
     assert!(text.contains("nosuchengine"), "{text}");
     std::fs::remove_dir_all(&out).ok();
 }
+
+/// `plugflow validate` asks the chosen engine without starting it (`pf_dem_check`): YADE's
+/// refusal of the seeds' regularised Coulomb law comes back from `validate` with the field
+/// and reason, and the same scene with the history law validates.
+#[test]
+fn validate_runs_yade_s_own_refusals() {
+    shim();
+    let case = root().join("cases/vertical_plug.toml");
+    let (code, text) = plugflow(&[
+        "validate",
+        case.to_str().unwrap(),
+        "--set",
+        "dem.engine=yade",
+    ]);
+    assert_eq!(code, 2, "{text}");
+    assert!(
+        text.contains("`yade` engine refuses")
+            && text.contains("contact.tangential")
+            && text.contains("YADE"),
+        "{text}"
+    );
+    let (code, text) = plugflow(&[
+        "validate",
+        case.to_str().unwrap(),
+        "--set",
+        "dem.engine=yade",
+        "--set",
+        "contact.tangential=history",
+    ]);
+    assert_eq!(code, 0, "{text}");
+}

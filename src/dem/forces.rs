@@ -194,6 +194,24 @@ pub struct ChunkOut<'a> {
     pub scratch: &'a mut ContactScratch,
 }
 
+impl ChunkOut<'_> {
+    /// The same outputs borrowed for a shorter time, by value: a stage takes its outputs as
+    /// plain slices (held in registers), not through a reference to this struct.
+    #[inline(always)]
+    fn reborrow(&mut self) -> ChunkOut<'_> {
+        ChunkOut {
+            lo: self.lo,
+            force: &mut *self.force,
+            torque: &mut *self.torque,
+            history: &mut *self.history,
+            wall_history: &mut *self.wall_history,
+            spill: &mut *self.spill,
+            wall_force: &mut *self.wall_force,
+            scratch: &mut *self.scratch,
+        }
+    }
+}
+
 /// What every chunk's force loop reads: the laws, the step's settings, the grains and the
 /// neighbour list. One bundle, so the dispatch hops (sizes → CPU → body) pass one value.
 pub struct ForceInputs<'a, N, T> {
@@ -277,8 +295,6 @@ fn chunk_forces_body<N: NormalLaw, T: TangentialLaw, S: Sizes>(
         set,
         grains: g,
         start,
-        partner,
-        near_wall,
         ..
     } = inputs;
     let lo = out.lo;
@@ -298,7 +314,6 @@ fn chunk_forces_body<N: NormalLaw, T: TangentialLaw, S: Sizes>(
         ..inputs
     };
     let hist_off = start[lo] as usize;
-    let sc = out.scratch;
     for f in out.force.iter_mut() {
         *f = [0.0; 3];
     }
@@ -308,7 +323,35 @@ fn chunk_forces_body<N: NormalLaw, T: TangentialLaw, S: Sizes>(
         }
     }
 
-    // Grain–grain: contacts of the chunk's rows.
+    let mut out = out;
+    pair_contacts(inputs, out.reborrow(), sizes, hist_off);
+    wall_contacts(inputs, out.reborrow(), sizes);
+    for i in lo..hi {
+        let fi = add(scale(set.gravity, g.mass[i]), g.external_force[i]);
+        add_assign(&mut out.force[i - lo], fi);
+    }
+}
+
+/// Grain–grain contacts of the chunk's rows: detection into the contact lists, then the laws
+/// four contacts at a time, each force and torque to its two grains (or a spill), in list
+/// order. (Inlined into the force loop: one function for reading, one body for the compiler.)
+#[inline(always)]
+fn pair_contacts<N: NormalLaw, T: TangentialLaw, S: Sizes>(
+    inputs: ForceInputs<'_, N, T>,
+    out: ChunkOut<'_>,
+    sizes: S,
+    hist_off: usize,
+) {
+    let ForceInputs {
+        set,
+        grains: g,
+        start,
+        partner,
+        ..
+    } = inputs;
+    let lo = out.lo;
+    let hi = lo + out.force.len();
+    let sc = out.scratch;
     // The lists sized for every pair of the rows to touch and a last group's padding:
     // filled by index, no push.
     let room = start[hi] as usize - hist_off + LANES;
@@ -393,8 +436,25 @@ fn chunk_forces_body<N: NormalLaw, T: TangentialLaw, S: Sizes>(
             }
         }
     }
+}
 
-    // Walls, one at a time: a partner of infinite mass and radius, at rest.
+/// Grain–wall contacts, one wall at a time (a partner of infinite mass and radius, at rest):
+/// the wall's near list, the laws four contacts at a time, the force on the wall.
+#[inline(always)]
+fn wall_contacts<N: NormalLaw, T: TangentialLaw, S: Sizes>(
+    inputs: ForceInputs<'_, N, T>,
+    out: ChunkOut<'_>,
+    sizes: S,
+) {
+    let ForceInputs {
+        set,
+        grains: g,
+        near_wall,
+        ..
+    } = inputs;
+    let lo = out.lo;
+    let hi = lo + out.force.len();
+    let sc = out.scratch;
     let nw = set.walls.len();
     for (w, wall) in set.walls.iter().enumerate() {
         // Grains [lo, hi) of the wall's near list; all others are more than half a skin
@@ -468,11 +528,6 @@ fn chunk_forces_body<N: NormalLaw, T: TangentialLaw, S: Sizes>(
             }
         }
         out.wall_force[w] = on_wall;
-    }
-
-    for i in lo..hi {
-        let fi = add(scale(set.gravity, g.mass[i]), g.external_force[i]);
-        add_assign(&mut out.force[i - lo], fi);
     }
 }
 

@@ -11,24 +11,87 @@ use crate::dem::placement::{perpendicular_basis, Region};
 use crate::dem::vec3::{add, normalized, scale};
 use crate::dem::walls::{Wall, WallShape};
 use crate::scene::{NormalLawName, Scene, SceneError, TangentialLawName, TubeEnd};
-use crate::Real;
+use crate::{Real, Vec3};
 use std::f64::consts::PI;
+
+/// Grain sizes and density, as every part of the configuration needs them.
+struct Grains {
+    dmin: Real,
+    dmax: Real,
+    rmin: Real,
+    rmax: Real,
+    rho: Real,
+}
+
+impl Grains {
+    fn of(scene: &Scene) -> Grains {
+        let p = &scene.file.particles;
+        let (dmin, dmax) = match p.diameter {
+            Some(d) => (d.si, d.si),
+            None => (
+                p.diameter_min.map(|q| q.si).unwrap_or(0.0),
+                p.diameter_max.map(|q| q.si).unwrap_or(0.0),
+            ),
+        };
+        Grains {
+            dmin,
+            dmax,
+            rmin: 0.5 * dmin,
+            rmax: 0.5 * dmax,
+            rho: p.density.si,
+        }
+    }
+
+    /// Mass of a grain of radius `r`, kg.
+    fn mass(&self, r: Real) -> Real {
+        self.rho * 4.0 / 3.0 * PI * r * r * r
+    }
+}
 
 /// Derive the built-in engine's configuration from a checked scene.
 pub fn dem_config(scene: &Scene) -> Result<DemConfig, SceneError> {
     let f = &scene.file;
-    let p = &f.particles;
-    let (dmin, dmax) = match p.diameter {
-        Some(d) => (d.si, d.si),
-        None => (
-            p.diameter_min.map(|q| q.si).unwrap_or(0.0),
-            p.diameter_max.map(|q| q.si).unwrap_or(0.0),
-        ),
-    };
-    let (rmin, rmax) = (0.5 * dmin, 0.5 * dmax);
-    let rho = p.density.si;
-    let mass = |r: Real| rho * 4.0 / 3.0 * PI * r * r * r;
-    let c = &f.contact;
+    let g = Grains::of(scene);
+    let mut laws = contact_laws(scene, &g);
+    let (dt, dt_report, v_max) = time_step(scene, &g, &laws)?;
+    let Geometry {
+        walls,
+        box_lo,
+        box_hi,
+        tube,
+        removes,
+    } = geometry(scene, g.dmax)?;
+    laws.attach_walls(&walls);
+    let inlet = inlet_config(scene, tube.as_ref(), &g)?;
+    let initial = initial_config(scene, tube.as_ref(), box_lo, box_hi)?;
+    Ok(DemConfig {
+        dt,
+        dt_report,
+        rotation: f.dem.rotation,
+        skin: f.dem.skin.map(|s| s.si).unwrap_or(0.1 * g.dmax),
+        threads: f.dem.threads,
+        gravity: [f.gravity[0].si, f.gravity[1].si, f.gravity[2].si],
+        walls,
+        laws,
+        box_lo,
+        box_hi,
+        tube,
+        inlet,
+        initial,
+        radius_min: g.rmin,
+        radius_max: g.rmax,
+        density: g.rho,
+        seed: f.seed,
+        removes_grains: removes,
+        max_impact_velocity: v_max,
+    })
+}
+
+/// `[contact]` → the laws, grain–grain and grain–wall.
+fn contact_laws(scene: &Scene, g: &Grains) -> LawSet {
+    let (dmin, dmax) = (g.dmin, g.dmax);
+    let mass = |r: Real| g.mass(r);
+    let c = &scene.file.contact;
     let e_pp = c.restitution.0;
     let e_pw = c.wall_restitution.map(|e| e.0).unwrap_or(e_pp);
     let mu_pp = c.friction.0;
@@ -40,7 +103,7 @@ pub fn dem_config(scene: &Scene) -> Result<DemConfig, SceneError> {
             gamma_t: c.tangential_damping.map(|g| g.si),
         },
     };
-    let mut laws = match c.normal {
+    let laws = match c.normal {
         NormalLawName::Hooke => {
             let ratio = c
                 .tangential_stiffness_ratio
@@ -65,6 +128,19 @@ pub fn dem_config(scene: &Scene) -> Result<DemConfig, SceneError> {
             LawSet::Hertz(TangentialSet::new(tangential, pp, pw, mu_pp, mu_pw))
         }
     };
+    laws
+}
+
+/// The time step, its stability limit and why, and the largest impact speed (m/s).
+fn time_step(
+    scene: &Scene,
+    g: &Grains,
+    laws: &LawSet,
+) -> Result<(Real, TimeStepReport, Real), SceneError> {
+    let f = &scene.file;
+    let c = &f.contact;
+    let (rmin, rho) = (g.rmin, g.rho);
+    let mass = |r: Real| g.mass(r);
     // Time step: the smallest grain pair collides fastest.
     let v_max = f.dem.max_impact_velocity.si;
     let m_small = mass(rmin);
@@ -101,9 +177,32 @@ pub fn dem_config(scene: &Scene) -> Result<DemConfig, SceneError> {
         }
         None => ((tc / f.dem.dt_fraction.0).min(limit), true),
     };
-    let skin = f.dem.skin.map(|s| s.si).unwrap_or(0.1 * dmax);
-    let gravity = [f.gravity[0].si, f.gravity[1].si, f.gravity[2].si];
-    // Geometry.
+    Ok((
+        dt,
+        TimeStepReport {
+            contact_time: tc,
+            rayleigh_time: rayleigh,
+            limit,
+            limit_reason,
+            derived,
+        },
+        v_max,
+    ))
+}
+
+/// The walls, the simulation box and the tube in engine terms.
+struct Geometry {
+    walls: Vec<Wall>,
+    box_lo: Vec3,
+    box_hi: Vec3,
+    tube: Option<TubeGeometry>,
+    /// Grains can leave (open ends or a box).
+    removes: bool,
+}
+
+/// `[tube]` (its wall, caps and slab planes) or `[domain]`, and `[[walls]]`.
+fn geometry(scene: &Scene, dmax: Real) -> Result<Geometry, SceneError> {
+    let f = &scene.file;
     let mut walls = Vec::new();
     let (mut box_lo, mut box_hi);
     let mut tube_geom = None;
@@ -214,9 +313,24 @@ pub fn dem_config(scene: &Scene) -> Result<DemConfig, SceneError> {
             friction: None,
         });
     }
-    laws.attach_walls(&walls);
-    // Inlet.
-    let inlet = match (&f.inlet, &tube_geom) {
+    Ok(Geometry {
+        walls,
+        box_lo,
+        box_hi,
+        tube: tube_geom,
+        removes,
+    })
+}
+
+/// `[inlet]` in engine terms (None without one).
+fn inlet_config(
+    scene: &Scene,
+    tube: Option<&TubeGeometry>,
+    g: &Grains,
+) -> Result<Option<InletConfig>, SceneError> {
+    let f = &scene.file;
+    let (rmin, rmax, rho, dmax) = (g.rmin, g.rmax, g.rho, g.dmax);
+    let inlet = match (&f.inlet, tube) {
         (Some(i), Some(t)) => {
             let v_mean = 4.0 / 3.0 * PI * (0.5 * (rmin + rmax)).powi(3);
             let m_mean = rho * v_mean;
@@ -275,9 +389,20 @@ pub fn dem_config(scene: &Scene) -> Result<DemConfig, SceneError> {
         }
         _ => None,
     };
+    Ok(inlet)
+}
+
+/// `[initial]` in engine terms (None without one).
+fn initial_config(
+    scene: &Scene,
+    tube: Option<&TubeGeometry>,
+    box_lo: Vec3,
+    box_hi: Vec3,
+) -> Result<Option<InitialConfig>, SceneError> {
+    let f = &scene.file;
     let initial = match &f.initial {
         Some(ini) => {
-            let region = match &tube_geom {
+            let region = match tube {
                 Some(t) => {
                     if ini.from.si < 0.0 || ini.to.si > t.length {
                         return Err(field_err(
@@ -316,34 +441,9 @@ pub fn dem_config(scene: &Scene) -> Result<DemConfig, SceneError> {
         }
         None => None,
     };
-    Ok(DemConfig {
-        dt,
-        dt_report: TimeStepReport {
-            contact_time: tc,
-            rayleigh_time: rayleigh,
-            limit,
-            limit_reason,
-            derived,
-        },
-        rotation: f.dem.rotation,
-        skin,
-        threads: f.dem.threads,
-        gravity,
-        walls,
-        laws,
-        box_lo,
-        box_hi,
-        tube: tube_geom,
-        inlet,
-        initial,
-        radius_min: rmin,
-        radius_max: rmax,
-        density: rho,
-        seed: f.seed,
-        removes_grains: removes,
-        max_impact_velocity: v_max,
-    })
+    Ok(initial)
 }
+
 fn field_err(field: impl Into<String>, reason: impl Into<String>) -> SceneError {
     SceneError::field(field, reason)
 }

@@ -435,3 +435,36 @@ fn loader_refuses_another_major_and_missing_calls() {
         Ok(_) => panic!("an empty scene was accepted"),
     }
 }
+
+/// `pf_dem_check` (ABI 1.1): a scene the engine takes is accepted, one it refuses comes back
+/// with the engine's words naming the field, and a 1.0 library without the call says so.
+#[test]
+fn check_answers_without_starting_the_engine() {
+    use plugflow_coupling::abi::{check_scene, CheckOutcome};
+    let case = root().join("cases/vertical_plug.toml");
+    let good = Scene::load(&case, &[]).unwrap();
+    assert_eq!(
+        check_scene(&library(), &good.to_json()).unwrap(),
+        CheckOutcome::Accepted
+    );
+    // More initial grains than fit the stretch: only the engine's placement finds it.
+    let crowded = Scene::load(
+        &case,
+        &["initial={count=5000, from=\"0 m\", to=\"0.01 m\"}".to_string()],
+    )
+    .unwrap();
+    match check_scene(&library(), &crowded.to_json()).unwrap() {
+        CheckOutcome::Refused(why) => assert!(why.contains("initial.count"), "{why}"),
+        other => panic!("a crowded fill was not refused: {other:?}"),
+    }
+    let dir = scratch("check");
+    let old = c_library(
+        &dir,
+        "old",
+        "unsigned pf_dem_abi_version(void) { return 1u << 16; }\n",
+    );
+    assert_eq!(
+        check_scene(&old, &good.to_json()).unwrap(),
+        CheckOutcome::NotOffered
+    );
+}

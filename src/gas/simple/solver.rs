@@ -1,0 +1,555 @@
+//! The SIMPLE iteration on a [`Geometry`]: momentum with the drag implicit, pressure
+//! correction by sparse Cholesky, density and porosity on the faces.
+
+use super::*;
+
+/// The SIMPLE gas on a staggered grid.
+#[derive(Clone)]
+pub struct SimpleGas {
+    pub params: SimpleParams,
+    /// The drag law whose coefficient β/(1 − ε) gives the interphase term (the grains' own:
+    /// [`SimpleGas::set_drag_law`]); Ergun / Wen–Yu with the gas's viscosity by default.
+    pub(super) drag_law: Arc<dyn DragLaw>,
+    pub geometry: Geometry,
+    /// Velocity component d on the faces normal to d, m/s (interstitial).
+    pub vel: [Vec<Real>; 3],
+    /// Pressure at cell centres, Pa (0 at the outlet face).
+    pub p: Vec<Real>,
+    /// Porosity at cell centres.
+    pub porosity: Vec<Real>,
+    /// Gas density at cell centres, kg/m³.
+    pub rho: Vec<Real>,
+    /// ρε of every cell at the end of the last time step (None before the first).
+    pub(super) prev_mass: Option<Vec<Real>>,
+    /// Solid fraction of the grains fed into each cell since the last step (they enter
+    /// with their gas: counted as present at the step's start too). Empty: none.
+    pub fed_solid: Vec<Real>,
+    /// Grain velocity at cell centres (components along the grid's directions), m/s.
+    pub grain_velocity: Vec<[Real; 3]>,
+    /// Each component's momentum stencils, in sweep order.
+    pub(super) stencils: [Vec<FaceStencil>; 3],
+    /// The cells beside every face (per direction).
+    pub(super) face_cells: [Vec<(usize, usize)>; 3],
+    pub(super) symbolic: Option<SymbolicLlt<usize>>,
+    /// The pressure-correction matrix's pattern and the order its values are pushed in
+    /// (the same every iteration: built once).
+    pub(super) pattern: Option<(SymbolicSparseColMat<usize>, Argsort<usize>)>,
+}
+
+impl SimpleGas {
+    /// Gas at rest across (u = U along the flow on the open faces), p = 0, porosity 1,
+    /// grains at rest.
+    pub fn new(params: SimpleParams, geometry: Geometry) -> Self {
+        faer::set_global_parallelism(faer::Par::Seq);
+        let cells = geometry.cells();
+        let vel = std::array::from_fn(|d| {
+            (0..geometry.faces(d))
+                .map(|f| {
+                    if d == 0 && geometry.area[0][f] > 0.0 {
+                        params.inlet_velocity
+                    } else {
+                        0.0
+                    }
+                })
+                .collect()
+        });
+        let stencils = std::array::from_fn(|d| geometry.stencils(d));
+        let face_cells = std::array::from_fn(|d| geometry.face_cells(d));
+        Self {
+            drag_law: Arc::new(ErgunWenYu::new(params.viscosity)),
+            vel,
+            p: vec![0.0; cells],
+            porosity: vec![1.0; cells],
+            rho: vec![params.density; cells],
+            prev_mass: None,
+            fed_solid: Vec::new(),
+            grain_velocity: vec![[0.0; 3]; cells],
+            stencils,
+            face_cells,
+            symbolic: None,
+            pattern: None,
+            params,
+            geometry,
+        }
+    }
+
+    /// Density from the pressure (ideal gas); an absolute pressure at or below zero is an
+    /// error naming the cell.
+    pub(super) fn update_density(&mut self) -> Result<(), String> {
+        let Some(p0) = self.params.ideal_gas_pressure else {
+            return Ok(());
+        };
+        for (c, (r, p)) in self.rho.iter_mut().zip(&self.p).enumerate() {
+            let ratio = 1.0 + p / p0;
+            if ratio <= 0.0 {
+                return Err(format!(
+                    "absolute pressure {:.4e} Pa ≤ 0 in cell {c} (ideal gas)",
+                    p0 + p
+                ));
+            }
+            *r = self.params.density * ratio;
+        }
+        Ok(())
+    }
+
+    /// Gas mass per mixture volume, ρε, of every cell, kg/m³.
+    pub(super) fn cell_mass(&self) -> Vec<Real> {
+        self.rho
+            .iter()
+            .zip(&self.porosity)
+            .map(|(r, e)| r * e)
+            .collect()
+    }
+
+    /// Gas mass in the grid, kg.
+    pub fn gas_mass(&self) -> Real {
+        self.cell_mass()
+            .iter()
+            .zip(&self.geometry.volume)
+            .map(|(m, v)| m * v)
+            .sum()
+    }
+
+    /// A cell-centred field on the face normal to d at x: the mean of the two cells beside
+    /// it, the one cell's value on the grid's boundary.
+    pub(super) fn on_face(&self, field: &[Real], d: usize, x: [usize; 3]) -> Real {
+        let g = &self.geometry;
+        if x[d] == 0 {
+            field[g.cell(x)]
+        } else if x[d] == g.n[d] {
+            field[g.cell(minus(x, d))]
+        } else {
+            0.5 * (field[g.cell(minus(x, d))] + field[g.cell(x)])
+        }
+    }
+
+    /// Mass flow through the face normal to d at x (positive along d), kg/s.
+    pub(super) fn mass_flow(&self, vel: &[Vec<Real>; 3], d: usize, x: [usize; 3]) -> Real {
+        let f = self.geometry.face(d, x);
+        self.on_face(&self.rho, d, x)
+            * self.on_face(&self.porosity, d, x)
+            * vel[d][f]
+            * self.geometry.area[d][f]
+    }
+
+    /// Gas mass flow out through the outlet, kg/s.
+    pub fn outlet_mass_flow(&self) -> Real {
+        let n = self.geometry.n;
+        Geometry::each([1, n[1], n[2]])
+            .map(|x| self.mass_flow(&self.vel, 0, [n[0], x[1], x[2]]))
+            .sum()
+    }
+
+    /// Gas velocity at the centre of cell x (each component the mean of its two faces), m/s.
+    pub(super) fn centre_velocity(&self, x: [usize; 3]) -> [Real; 3] {
+        let g = &self.geometry;
+        std::array::from_fn(|d| {
+            0.5 * (self.vel[d][g.face(d, x)] + self.vel[d][g.face(d, plus(x, d))])
+        })
+    }
+
+    /// Take the interphase coefficient from `law` (the one the grains feel), which must be a
+    /// law of the slip.
+    pub fn set_drag_law(&mut self, law: Arc<dyn DragLaw>) -> Result<(), String> {
+        if law.slip_coefficient(0.5, 1.0, 1e-3, 1.0).is_none() {
+            return Err(format!(
+                "the `{}` drag is not a law of the gas's slip; the simple gas needs one \
+                 (ergun_wen_yu, di_felice)",
+                law.name()
+            ));
+        }
+        self.drag_law = law;
+        Ok(())
+    }
+
+    /// Interphase coefficient β at every cell from the current slip, kg/(m³ s).
+    pub(super) fn beta(&self) -> Vec<Real> {
+        let g = &self.geometry;
+        let mut b = vec![0.0; g.cells()];
+        let Some(d) = self.params.drag_diameter else {
+            return b;
+        };
+        for x in Geometry::each(g.n) {
+            let c = g.cell(x);
+            let eps = self.porosity[c];
+            if eps >= 1.0 || g.volume[c] == 0.0 {
+                continue;
+            }
+            let u = self.centre_velocity(x);
+            let v = self.grain_velocity[c];
+            let w = ((u[0] - v[0]).powi(2) + (u[1] - v[1]).powi(2) + (u[2] - v[2]).powi(2)).sqrt();
+            // (set_drag_law admits only laws of the slip.)
+            let per_solid = self.drag_law.slip_coefficient(eps, w, d, self.rho[c]);
+            b[c] = (1.0 - eps) * per_solid.unwrap_or(0.0);
+        }
+        b
+    }
+
+    /// The inlet's mass flux ρ0 U as interstitial u on the inlet's open faces.
+    pub(super) fn apply_inlet(&mut self, faces: &FaceFields) {
+        let g = &self.geometry;
+        let flux = self.params.density * self.params.inlet_velocity * g.flow_area / g.inlet_area();
+        for x in Geometry::each([1, g.n[1], g.n[2]]) {
+            let f = g.face(0, x);
+            if g.area[0][f] > 0.0 {
+                self.vel[0][f] = flux / (faces.density[0][f] * faces.porosity[0][f]);
+            }
+        }
+    }
+
+    /// A cell-centred field on every face (see [`SimpleGas::on_face`]).
+    pub(super) fn on_faces(&self, field: &[Real]) -> [Vec<Real>; 3] {
+        std::array::from_fn(|d| {
+            self.face_cells[d]
+                .iter()
+                .map(|&(lo, hi)| match (lo, hi) {
+                    // (No open cell beside: a closed face, never used.)
+                    (NONE, NONE) => 0.0,
+                    (lo, NONE) => field[lo],
+                    (NONE, hi) => field[hi],
+                    (lo, hi) => 0.5 * (field[lo] + field[hi]),
+                })
+                .collect()
+        })
+    }
+
+    /// Steady state: SIMPLE iterations until the mass imbalance falls below `tol` of the
+    /// inlet mass flow (or `max_iter`).
+    pub fn solve_steady(&mut self, tol: Real, max_iter: usize) -> Result<SimpleReport, String> {
+        self.iterate(None, tol, max_iter)
+    }
+
+    /// One time step of `dt` from the present state (SIMPLE iterations within the step).
+    /// Continuity carries ∂(ρε)/∂t: the porosity set since the last step (grains moving in
+    /// or out of a cell displace gas) and, for an ideal gas, the density's change.
+    pub fn step(&mut self, dt: Real, tol: Real, max_iter: usize) -> Result<SimpleReport, String> {
+        let old = self.vel.clone();
+        let mut mass_old = self.prev_mass.take().unwrap_or_else(|| self.cell_mass());
+        let saved_mass = mass_old.clone();
+        for ((m, f), r) in mass_old.iter_mut().zip(&self.fed_solid).zip(&self.rho) {
+            *m -= r * f;
+        }
+        self.fed_solid.clear();
+        let r = self.iterate(Some((dt, old, mass_old)), tol, max_iter);
+        self.prev_mass = Some(if r.is_ok() {
+            self.cell_mass()
+        } else {
+            saved_mass
+        });
+        r
+    }
+
+    /// The momentum equations of component d on its unknown faces.
+    pub(super) fn momentum(
+        &self,
+        d: usize,
+        faces: &FaceFields,
+        beta: &[Real],
+        transient: Option<&Transient>,
+    ) -> Vec<Row> {
+        let g = &self.geometry;
+        let hd = g.h[d];
+        let mu = self.params.viscosity;
+        let alpha = self.params.relax_velocity;
+        let (vel, por, rho) = (&self.vel, &self.porosity, &self.rho);
+        let mut rows = Vec::with_capacity(self.stencils[d].len());
+        for st in &self.stencils[d] {
+            let f = st.face;
+            let eps_f = faces.porosity[d][f];
+            let rho_f = faces.density[d][f];
+            let mut row = Row {
+                face: f,
+                inv_diag: 0.0,
+                b: 0.0,
+                nb: [NONE; 6],
+                a: [0.0; 6],
+            };
+            let (mut dirichlet, mut net) = (0.0, 0.0);
+            // Along d: through the cells' centres.
+            let cl = st.lo;
+            let f_lo = rho[cl] * por[cl] * 0.5 * (vel[d][st.next[1]] + vel[d][f]) * st.section[1];
+            row.nb[1] = st.next[1];
+            row.a[1] = mu * por[cl] * st.section[1] / hd + f_lo.max(0.0);
+            net -= f_lo;
+            if st.hi != NONE {
+                let ch = st.hi;
+                let f_hi =
+                    rho[ch] * por[ch] * 0.5 * (vel[d][f] + vel[d][st.next[0]]) * st.section[0];
+                row.nb[0] = st.next[0];
+                row.a[0] = mu * por[ch] * st.section[0] / hd + (-f_hi).max(0.0);
+                net += f_hi;
+            } else {
+                // Outlet: zero gradient.
+                net += rho[cl] * por[cl] * vel[d][f] * st.section[1];
+            }
+            // Across: through the control volume's sides, half of each cell's face.
+            for (s, side) in st.sides.iter().enumerate() {
+                if side.count == 0 {
+                    continue;
+                }
+                let t = side.t;
+                let k = side.count as usize;
+                let (mut eps, mut v) = (0.0, 0.0);
+                for &sf in &side.faces[..k] {
+                    eps += faces.porosity[t][sf];
+                    v += vel[t][sf];
+                }
+                eps /= side.count as Real;
+                v /= side.count as Real;
+                let flux = rho_f * eps * v * side.area;
+                if side.neighbour != NONE {
+                    row.nb[2 + s] = side.neighbour;
+                    row.a[2 + s] = mu * eps * side.area / side.gap
+                        + if side.up {
+                            (-flux).max(0.0)
+                        } else {
+                            flux.max(0.0)
+                        };
+                } else {
+                    // The inlet plane, where this component is 0, half a cell upstream.
+                    dirichlet += mu * eps * side.area / (0.5 * g.h[0]) + flux.max(0.0);
+                }
+                net += if side.up { flux } else { -flux };
+            }
+            let (beta_f, grain) = if st.hi != NONE {
+                (
+                    0.5 * (beta[cl] + beta[st.hi]),
+                    0.5 * (self.grain_velocity[cl][d] + self.grain_velocity[st.hi][d]),
+                )
+            } else {
+                (beta[cl], self.grain_velocity[cl][d])
+            };
+            let mut ap = row.a.iter().sum::<Real>()
+                + dirichlet
+                + net.max(0.0)
+                + mu * eps_f * st.wall
+                + beta_f * st.vol;
+            let p_hi = if st.hi != NONE { self.p[st.hi] } else { 0.0 };
+            let mut src = eps_f * (self.p[cl] - p_hi) * st.area + beta_f * st.vol * grain;
+            if let Some((partner, k_self, k_partner)) = st.partner {
+                src -= mu * eps_f * (k_self * vel[d][f] + k_partner * vel[d][partner]);
+            }
+            if let Some((dt, old, _)) = transient {
+                let m = rho_f * eps_f * st.vol / dt;
+                ap += m;
+                src += m * old[d][f];
+            }
+            let relaxed = ap / alpha;
+            row.inv_diag = if relaxed > 0.0 { 1.0 / relaxed } else { 0.0 };
+            row.b = src + (1.0 - alpha) * relaxed * vel[d][f];
+            rows.push(row);
+        }
+        rows
+    }
+
+    pub(super) fn iterate(
+        &mut self,
+        transient: Option<Transient>,
+        tol: Real,
+        max_iter: usize,
+    ) -> Result<SimpleReport, String> {
+        let pr = self.params;
+        let ap_relax = pr.relax_pressure;
+        let inflow = pr.density * pr.inlet_velocity * self.geometry.flow_area;
+        // ∂ρ/∂p of the ideal gas (for the pressure correction), s²/m².
+        let drho_dp = pr.ideal_gas_pressure.map_or(0.0, |p0| pr.density / p0);
+        let mut report = SimpleReport {
+            iterations: 0,
+            mass_residual: Real::INFINITY,
+        };
+        for it in 0..max_iter {
+            self.update_density()?;
+            let faces = FaceFields {
+                porosity: self.on_faces(&self.porosity),
+                density: self.on_faces(&self.rho),
+            };
+            self.apply_inlet(&faces);
+            let beta = self.beta();
+            let (mut star, du) = self.predict_velocities(&faces, &beta, transient.as_ref());
+            let (pc, worst) =
+                self.pressure_correction(&faces, &star, &du, transient.as_ref(), drho_dp)?;
+            // ---- corrections -------------------------------------------------------------
+            for (p, c) in self.p.iter_mut().zip(&pc) {
+                *p += ap_relax * c;
+            }
+            for d in 0..3 {
+                for st in &self.stencils[d] {
+                    let f = st.face;
+                    let hi = if st.hi != NONE { pc[st.hi] } else { 0.0 };
+                    star[d][f] += du[d][f] * faces.porosity[d][f] * st.area * (pc[st.lo] - hi);
+                }
+            }
+            self.vel = star;
+            report = SimpleReport {
+                iterations: it + 1,
+                mass_residual: worst / inflow.abs().max(1e-300),
+            };
+            if !self
+                .vel
+                .iter()
+                .flatten()
+                .chain(&self.p)
+                .all(|x| x.is_finite())
+            {
+                return Err(format!("SIMPLE diverged at iteration {}", it + 1));
+            }
+            if report.mass_residual < tol && it > 2 {
+                break;
+            }
+        }
+        Ok(report)
+    }
+
+    /// The momentum equations, each component by Gauss–Seidel sweeps: the starred
+    /// velocities, and d(velocity)/d(pressure difference × area × ε) of each face (1/a_P;
+    /// 0 where fixed).
+    fn predict_velocities(
+        &self,
+        faces: &FaceFields,
+        beta: &[Real],
+        transient: Option<&Transient>,
+    ) -> ([Vec<Real>; 3], [Vec<Real>; 3]) {
+        let mut star = self.vel.clone();
+        // d(velocity)/d(pressure difference × area × ε) of each face: 1/a_P (0: fixed).
+        let mut du: [Vec<Real>; 3] = std::array::from_fn(|d| vec![0.0; self.vel[d].len()]);
+        for d in 0..3 {
+            if self.stencils[d].is_empty() {
+                continue;
+            }
+            let rows = self.momentum(d, faces, beta, transient);
+            let s = &mut star[d];
+            for _ in 0..MOMENTUM_SWEEPS {
+                for row in &rows {
+                    let mut acc = row.b;
+                    for (&k, &a) in row.nb.iter().zip(&row.a) {
+                        if k != NONE {
+                            acc += a * s[k];
+                        }
+                    }
+                    s[row.face] = acc * row.inv_diag;
+                }
+            }
+            for row in &rows {
+                du[d][row.face] = row.inv_diag;
+            }
+        }
+        (star, du)
+    }
+
+    /// The pressure correction p' from the starred velocities' mass imbalance (symmetric
+    /// positive definite, faer's sparse Cholesky with the symbolic factorisation kept), and
+    /// the largest cell imbalance, kg/s.
+    fn pressure_correction(
+        &mut self,
+        faces: &FaceFields,
+        star: &[Vec<Real>; 3],
+        du: &[Vec<Real>; 3],
+        transient: Option<&Transient>,
+        drho_dp: Real,
+    ) -> Result<(Vec<Real>, Real), String> {
+        let cells = self.geometry.cells();
+        let g = &self.geometry;
+        let mut diag = vec![0.0; cells];
+        let mut rhs = vec![0.0; cells];
+        // Mass flows with the starred velocities into and out of every cell.
+        for d in 0..3 {
+            for (f, &(lo, hi)) in self.face_cells[d].iter().enumerate() {
+                let flow = faces.density[d][f] * faces.porosity[d][f] * star[d][f] * g.area[d][f];
+                if flow == 0.0 {
+                    continue;
+                }
+                if lo != NONE {
+                    rhs[lo] -= flow;
+                }
+                if hi != NONE {
+                    rhs[hi] += flow;
+                }
+            }
+        }
+        let mut worst: Real = 0.0;
+        for c in 0..cells {
+            if g.volume[c] == 0.0 {
+                // Outside the flow: p' = 0, decoupled.
+                diag[c] = 1.0;
+                rhs[c] = 0.0;
+                continue;
+            }
+            if let Some((dt, _, mass_old)) = transient {
+                // Gas mass gained by the cell over the step leaves less to flow out; an
+                // ideal gas also stores mass as its pressure rises.
+                let vol = g.volume[c];
+                rhs[c] -= (self.rho[c] * self.porosity[c] - mass_old[c]) * vol / dt;
+                diag[c] += self.porosity[c] * vol / dt * drho_dp;
+            }
+            worst = worst.max(rhs[c].abs());
+        }
+        // Entries (row, column) of the lower triangle, pushed in a fixed order.
+        let mut idx: Vec<(usize, usize)> = Vec::with_capacity(4 * cells);
+        let mut val: Vec<Real> = Vec::with_capacity(4 * cells);
+        for d in 0..3 {
+            for st in &self.stencils[d] {
+                let f = st.face;
+                let eps = faces.porosity[d][f];
+                let a = faces.density[d][f] * eps * eps * st.area * st.area * du[d][f];
+                // (The outlet's faces: p' = 0 beyond.)
+                diag[st.lo] += a;
+                if st.hi != NONE {
+                    diag[st.hi] += a;
+                    idx.push((st.hi, st.lo));
+                    val.push(-a);
+                }
+            }
+        }
+        for (k, d) in diag.iter().enumerate() {
+            idx.push((k, k));
+            val.push(*d);
+        }
+        if self.pattern.is_none() {
+            let pairs: Vec<Pair<usize, usize>> =
+                idx.iter().map(|&(row, col)| Pair { row, col }).collect();
+            self.pattern = Some(
+                SymbolicSparseColMat::try_new_from_indices(cells, cells, &pairs)
+                    .map_err(|e| format!("pressure-correction pattern: {e:?}"))?,
+            );
+        }
+        let (pattern, order) = self.pattern.as_ref().expect("just built");
+        let mat = SparseColMat::<usize, Real>::new_from_argsort(pattern.clone(), order, &val)
+            .map_err(|e| format!("pressure-correction assembly: {e:?}"))?;
+        if self.symbolic.is_none() {
+            self.symbolic = Some(
+                SymbolicLlt::try_new(mat.symbolic(), Side::Lower)
+                    .map_err(|e| format!("symbolic factorisation: {e:?}"))?,
+            );
+        }
+        let llt = Llt::try_new_with_symbolic(
+            self.symbolic.clone().expect("just built"),
+            mat.as_ref(),
+            Side::Lower,
+        )
+        .map_err(|e| format!("pressure-correction factorisation: {e:?}"))?;
+        let mut sol = Mat::<Real>::from_fn(cells, 1, |i, _| rhs[i]);
+        llt.solve_in_place(sol.as_mut());
+        let pc: Vec<Real> = (0..cells).map(|k| sol[(k, 0)]).collect();
+        Ok((pc, worst))
+    }
+
+    /// Mean pressure over the open cells of slice i along the flow (volume-weighted), Pa.
+    pub fn column_pressure(&self, i: usize) -> Real {
+        let g = &self.geometry;
+        let (mut s, mut v) = (0.0, 0.0);
+        for x in Geometry::each([1, g.n[1], g.n[2]]) {
+            let c = g.cell([i, x[1], x[2]]);
+            s += self.p[c] * g.volume[c];
+            v += g.volume[c];
+        }
+        s / v
+    }
+
+    /// Velocity along the flow on the faces of plane i (index order across), m/s.
+    pub fn axial_profile(&self, i: usize) -> Vec<Real> {
+        let g = &self.geometry;
+        Geometry::each([1, g.n[1], g.n[2]])
+            .map(|x| self.vel[0][g.face(0, [i, x[1], x[2]])])
+            .collect()
+    }
+}
