@@ -11,16 +11,15 @@
 
 pub mod analysis;
 pub mod crosscheck;
-pub mod dem;
 pub mod gas;
 pub mod output;
 pub mod png;
-pub mod rng;
 pub mod run;
-pub mod scene;
 pub mod setup;
 pub mod study;
-pub mod summary;
 pub mod sweep;
 
 pub use plugflow_coupling::{Real, Vec3};
+// The scene, the built-in DEM and the summary live in `plugflow-model` (what the engines'
+// shims depend on); here under their usual paths.
+pub use plugflow_model::{dem, rng, scene, summary};

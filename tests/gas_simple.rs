@@ -2,7 +2,7 @@
 //! "ergun_wen_yu"`): one grain settling through still gas reaches the Schiller–Naumann
 //! terminal velocity, and the CFDEM Ergun test's bed follows Ergun, then carries its weight.
 //! (The solver alone — plane Poiseuille, packed bed against Ergun — is
-//! tested in src/gas/simple.rs.)
+//! tested in src/gas/simple/tests.rs.)
 
 use plugflow::dem::NativeDem;
 use plugflow::scene::Scene;

@@ -4,4 +4,4 @@
 pub mod plugs;
 pub mod profiles;
 pub mod taps;
-pub mod targets;
+pub use plugflow_model::targets;

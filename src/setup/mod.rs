@@ -2,7 +2,7 @@
 //! the coupler. `validate`, `run`, `crosscheck`, `sweep` and `study` all go through here,
 //! so a scene that validates is a scene that runs.
 //!
-//! - [`dem_config`] (`dem.rs`): the built-in engine's configuration (laws, time step and its
+//! - [`dem_config`] (crate `plugflow-model`): the built-in engine's configuration (laws, time step and its
 //!   limit, walls, inlet); the external engines map the same configuration.
 //! - [`coupling_from_scene`] (`coupling.rs`): gas solver, drag law (from the registry in
 //!   `plugflow_coupling::drag`), coupling interval and the checks made before a run.
@@ -10,12 +10,11 @@
 //!   or asked whether it takes the scene without starting it.
 
 pub mod coupling;
-pub mod dem;
 pub mod engine;
 
 pub use coupling::{check_json, coupling_checks, coupling_from_scene};
-pub use dem::dem_config;
 pub use engine::{build_backend, check_engine};
+pub use plugflow_model::dem_config;
 
 use plugflow_coupling::{Coupler, DemBackend};
 

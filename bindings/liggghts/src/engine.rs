@@ -5,12 +5,12 @@ use std::ffi::{c_char, c_int, c_void, CStr, CString};
 use std::path::PathBuf;
 use std::sync::Mutex;
 
-use plugflow::dem::{DemConfig, NativeDem};
-use plugflow::scene::Scene;
 use plugflow_coupling::abi::PfDemFlow;
 use plugflow_coupling::{
     BackendError, DemBackend, GrainFlow, ImplicitDrag, NewParticle, ParticleView, WallForce,
 };
+use plugflow_model::dem::{DemConfig, NativeDem};
+use plugflow_model::scene::Scene;
 
 use crate::input::{map, map_user, Mapped, Outlet};
 
@@ -97,7 +97,7 @@ impl Liggghts {
     /// Check and map the scene, start LIGGGHTS, feed it the input, insert the scene's
     /// initial grains (placed by plugflow, so both engines start from the same bed).
     pub fn new(scene: &Scene) -> Result<Self, EngineError> {
-        let cfg = plugflow::setup::dem_config(scene).map_err(|e| e.to_string())?;
+        let cfg = plugflow_model::dem_config(scene).map_err(|e| e.to_string())?;
         let user_input = scene.file.dem.liggghts_input.clone();
         let mapped = match &user_input {
             Some(path) => map_user(&cfg, path).map_err(|e| e.to_string())?,

@@ -1,11 +1,13 @@
 //! Scene → LIGGGHTS input. Everything is checked here, before LIGGGHTS sees a line: a
 //! scene this mapping cannot express exactly is refused with the field and the reason.
 
-use plugflow::dem::config::{LawSet, TangentialSet};
-use plugflow::dem::external::{beta_form_restitution, linear_pairs, single_grain_mass, LinearPair};
-use plugflow::dem::walls::WallShape;
-use plugflow::dem::DemConfig;
-use plugflow::scene::Scene;
+use plugflow_model::dem::config::{LawSet, TangentialSet};
+use plugflow_model::dem::external::{
+    beta_form_restitution, linear_pairs, single_grain_mass, LinearPair,
+};
+use plugflow_model::dem::walls::WallShape;
+use plugflow_model::dem::DemConfig;
+use plugflow_model::scene::Scene;
 
 /// A refused scene: field and reason.
 #[derive(Debug)]

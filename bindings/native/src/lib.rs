@@ -4,14 +4,14 @@
 //! agree bit for bit. The exports themselves come from `plugflow_coupling::export_dem_abi!`
 //! (every body behind `catch_unwind`, errors as status codes and last-error text).
 
-use plugflow::dem::NativeDem;
-use plugflow::scene::Scene;
 use plugflow_coupling::DemBackend;
+use plugflow_model::dem::NativeDem;
+use plugflow_model::scene::Scene;
 
 /// The scene JSON of `pf_dem_create` → the built-in engine.
 fn build(json: &str) -> Result<Box<dyn DemBackend>, String> {
     let scene = Scene::from_json(json).map_err(|e| e.to_string())?;
-    let cfg = plugflow::setup::dem_config(&scene).map_err(|e| e.to_string())?;
+    let cfg = plugflow_model::dem_config(&scene).map_err(|e| e.to_string())?;
     Ok(Box::new(NativeDem::new(cfg).map_err(|e| e.to_string())?))
 }
 

@@ -9,14 +9,14 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::OnceLock;
 use std::time::Instant;
 
-use plugflow::dem::inlet::{leave_verdict, Feeder, Leave};
-use plugflow::dem::{DemConfig, NativeDem};
-use plugflow::rng::Rng;
-use plugflow::scene::Scene;
 use plugflow_coupling::timing::StageTimer;
 use plugflow_coupling::{
     BackendError, DemBackend, GrainFlow, ImplicitDrag, NewParticle, ParticleView, WallForce,
 };
+use plugflow_model::dem::inlet::{leave_verdict, Feeder, Leave};
+use plugflow_model::dem::{DemConfig, NativeDem};
+use plugflow_model::rng::Rng;
+use plugflow_model::scene::Scene;
 use pyo3::prelude::*;
 use pyo3::types::PyModule;
 
@@ -117,7 +117,7 @@ impl Yade {
     /// Check and map the scene, build it in YADE, insert the scene's initial grains
     /// (placed by plugflow, so every engine starts from the same bed).
     pub fn new(scene: &Scene) -> Result<Self, String> {
-        let cfg = plugflow::setup::dem_config(scene).map_err(|e| e.to_string())?;
+        let cfg = plugflow_model::dem_config(scene).map_err(|e| e.to_string())?;
         let setup = map(scene, &cfg).map_err(|e| e.to_string())?;
         let json = serde_json::to_string(&setup).map_err(|e| e.to_string())?;
         let initial = if cfg.initial.is_some() {

@@ -30,13 +30,13 @@
 //! together); YADE's Mindlin law integrates the shear force incrementally and damps shear
 //! with the normal coefficient.
 
-use plugflow::dem::config::{LawSet, TangentialSet};
-use plugflow::dem::external::{
+use plugflow_model::dem::config::{LawSet, TangentialSet};
+use plugflow_model::dem::external::{
     beta_form_restitution, linear_cutoff_damping_ratio, linear_pairs, single_grain_mass, LinearPair,
 };
-use plugflow::dem::walls::WallShape;
-use plugflow::dem::DemConfig;
-use plugflow::scene::Scene;
+use plugflow_model::dem::walls::WallShape;
+use plugflow_model::dem::DemConfig;
+use plugflow_model::scene::Scene;
 use serde::Serialize;
 
 /// Sides of the tube's polygon.

@@ -1,7 +1,7 @@
 //! Drag laws: the force of the gas on one grain from the fields at its position. One file
 //! per law behind [`DragLaw`]: `darcy` (the seeds' volume force, 000 and 002),
 //! `ergun_wen_yu` (seed 004 eqs. 12–13, the Gidaspow switch) and `di_felice`; the last two
-//! need a gas velocity, which the SIMPLE solver (src/gas/simple.rs) carries.
+//! need a gas velocity, which the SIMPLE solver (src/gas/simple/) carries.
 //!
 //! Every law registers itself in [`DRAG_LAWS`] (one `ENTRY` in its own file, one line here):
 //! the scene check, the gas and the coupler all read that table, so a new law is one file

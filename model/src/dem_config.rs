@@ -1,6 +1,6 @@
 //! From a checked scene to the built-in engine's configuration ([`DemConfig`]): contact
 //! laws, time step and its stability limit, walls, box, inlet. Everything here can fail only
-//! with a field error. (The engine itself, `src/dem/`, knows no scene.)
+//! with a field error. (The engine itself, `dem/`, reads only this configuration.)
 
 use crate::dem::config::{
     open_cross_section, DemConfig, InitialConfig, InletConfig, LawSet, TangentialChoice,

@@ -292,13 +292,10 @@ impl Summary {
 }
 
 /// A summary of a run that took `wall_time_s` and measured only `pressure_drop` (hPa/m),
-/// spending half its time in the gas: the study's and the sweep's unit tests.
-#[cfg(test)]
-pub(crate) fn test_summary(
-    status: &str,
-    wall_time_s: Real,
-    pressure_drop: Option<Real>,
-) -> Summary {
+/// spending half its time in the gas: for the unit tests of the summary's readers (the
+/// study's, here and in `plugflow`).
+#[doc(hidden)]
+pub fn test_summary(status: &str, wall_time_s: Real, pressure_drop: Option<Real>) -> Summary {
     Summary {
         status: status.into(),
         scene: "test".into(),
@@ -372,7 +369,7 @@ mod tests {
     /// diagnostics aside, which the paragraph under the table names).
     #[test]
     fn readme_lists_every_summary_key() {
-        let readme = include_str!("../README.md");
+        let readme = include_str!("../../README.md");
         let start = readme
             .find("### summary.json")
             .expect("README has the section");

@@ -32,7 +32,7 @@ pub enum SceneError {
     Engine { engine: String, reason: String },
 }
 
-/// DEM engines a scene may name (`dem.engine`); `crate::setup` builds them.
+/// DEM engines a scene may name (`dem.engine`); the `plugflow` crate's setup layer builds them.
 pub const ENGINES: [&str; 4] = ["native", "native_abi", "liggghts", "yade"];
 
 impl SceneError {

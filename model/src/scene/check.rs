@@ -418,11 +418,8 @@ fn check_output(f: &SceneFile) -> Result<(), SceneError> {
         }
     }
     for (k, id) in f.output.reproduces.iter().enumerate() {
-        if crate::analysis::targets::find(id).is_none() {
-            let known: Vec<&str> = crate::analysis::targets::TARGETS
-                .iter()
-                .map(|t| t.id)
-                .collect();
+        if crate::targets::find(id).is_none() {
+            let known: Vec<&str> = crate::targets::TARGETS.iter().map(|t| t.id).collect();
             return Err(field_err(
                 format!("output.reproduces[{k}]"),
                 format!("unknown target `{id}` (known: {})", known.join(", ")),

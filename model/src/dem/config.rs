@@ -1,5 +1,5 @@
 //! The built-in engine's configuration: contact laws, time step and its stability limit,
-//! walls, box, inlet (built from a scene by `crate::setup::dem_config`).
+//! walls, box, inlet (built from a scene by `crate::dem_config`).
 
 use super::contact::{CoulombViscous, Hertz, History, Hooke, NormalLaw, TangentialLaw};
 use super::forces::Laws;
