@@ -13,7 +13,7 @@ use crate::analysis::targets;
 use crate::dem::DemConfig;
 use crate::output::figures::{self, Curve, Panel};
 use crate::scene::Scene;
-use crate::setup::check_json;
+use crate::setup::check_row;
 use crate::summary::{Accuracy, GasAccuracy, GasSummary, PlugSummary, Summary};
 use crate::Real;
 
@@ -61,7 +61,7 @@ pub fn summarize(e: &Ending) -> Summary {
             0.0
         }
     };
-    let checks = |g: &Coupler| g.checks.iter().map(check_json).collect::<Vec<_>>();
+    let checks = |g: &Coupler| g.checks.iter().map(check_row).collect::<Vec<_>>();
     // What the numbers are worth: the DEM step against its stability limit and, with gas,
     // the gas step's time error (step doubling), the coupling checks and the clamps.
     let accuracy = Accuracy {

@@ -16,7 +16,7 @@ use crate::Real;
 use std::sync::Arc;
 
 /// A check as the summary reports it.
-pub fn check_json(c: &CouplingCheck) -> CheckRow {
+pub fn check_row(c: &CouplingCheck) -> CheckRow {
     CheckRow {
         name: c.name.to_string(),
         value: c.value,
@@ -117,17 +117,7 @@ pub fn coupling_from_scene(scene: &Scene, dem: &DemConfig) -> Result<Option<Coup
             // drag sees (C_V ε, seed 004 eq. 11).
             let phi = voidage_factor * g.porosity_min.0.max(0.4);
             let tau = dem.density * phi * d_mean * d_mean / (150.0 * (1.0 - phi) * g.viscosity.si);
-            let smallest = grid.smallest_open_volume();
-            let grain = 4.0 / 3.0 * std::f64::consts::PI * dem.radius_min.powi(3);
-            let checks = vec![
-                check_drag_relaxation(tau, phi, interval),
-                check_cell_volume(smallest, grain),
-                check_travel(
-                    dem.max_impact_velocity,
-                    interval,
-                    grid.dz.min(grid.dx).min(grid.dy),
-                ),
-            ];
+            let checks = checks_for(tau, phi, &grid, dem, interval);
             return coupler(Box::new(gas), drag, substeps, dem.dt, checks);
         }
         let checks = coupling_checks(&params, &grid, dem, interval);
@@ -189,14 +179,28 @@ pub fn coupling_checks(
     interval: Real,
 ) -> Vec<CouplingCheck> {
     let d = dem.radius_min + dem.radius_max;
-    let r_min = dem.radius_min;
     // Drag relaxation time of a grain in a dense plug: m / β with β = V η φ / ((1 − φ) κ),
     // i.e. τ = ρ_s (1 − φ) κ(φ) / (η φ). Evaluated at φ = 0.4 (dense random packing) or
     // the clamp's lower bound if that is looser.
     let phi = params.porosity_min.max(0.4);
     let tau = dem.density * (1.0 - phi) * carman_kozeny(d, phi) / (params.viscosity * phi);
+    let mut checks = checks_for(tau, phi, grid, dem, interval);
+    checks.push(check_darcy_range(params.superficial_velocity));
+    checks
+}
+
+/// The checks every gas model makes, given its drag relaxation time `tau` (s) in a plug at
+/// porosity `phi`: interval against τ, smallest cell against the smallest grain, travel per
+/// interval against the smallest cell size.
+fn checks_for(
+    tau: Real,
+    phi: Real,
+    grid: &TubeGrid,
+    dem: &DemConfig,
+    interval: Real,
+) -> Vec<CouplingCheck> {
     let smallest = grid.smallest_open_volume();
-    let grain = 4.0 / 3.0 * std::f64::consts::PI * r_min.powi(3);
+    let grain = 4.0 / 3.0 * std::f64::consts::PI * dem.radius_min.powi(3);
     vec![
         check_drag_relaxation(tau, phi, interval),
         check_cell_volume(smallest, grain),
@@ -205,7 +209,6 @@ pub fn coupling_checks(
             interval,
             grid.dz.min(grid.dx).min(grid.dy),
         ),
-        check_darcy_range(params.superficial_velocity),
     ]
 }
 

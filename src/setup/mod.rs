@@ -12,7 +12,7 @@
 pub mod coupling;
 pub mod engine;
 
-pub use coupling::{check_json, coupling_checks, coupling_from_scene};
+pub use coupling::{check_row, coupling_checks, coupling_from_scene};
 pub use engine::{build_backend, check_engine};
 pub use plugflow_model::dem_config;
 
