@@ -187,12 +187,14 @@ pub fn run(scene: &Scene, opts: &RunOptions) -> Result<RunOutcome, RunError> {
     if let Some(b) = &bar {
         b.finish_and_clear();
     }
+    let profiles = sampling.profiles.as_ref().map(|p| p.result());
     let summary = summarize(&Ending {
         scene,
         cfg: &cfg,
         dem: dem.as_ref(),
         gas: gas.as_ref(),
         sampling: &sampling,
+        profiles: profiles.as_ref(),
         status: match &failure {
             None => "completed".to_string(),
             Some(e @ RunError::Interrupted { .. }) => e.to_string(),
@@ -200,11 +202,17 @@ pub fn run(scene: &Scene, opts: &RunOptions) -> Result<RunOutcome, RunError> {
         },
         wall_time: wall.elapsed().as_secs_f64(),
     });
-    write_figures(&out_dir, &cfg, dem.as_ref(), gas.as_ref(), &sampling)?;
-    if let Some(pr) = &sampling.profiles {
-        let res = pr.result();
+    write_figures(
+        &out_dir,
+        &cfg,
+        dem.as_ref(),
+        gas.as_ref(),
+        &sampling,
+        profiles.as_ref(),
+    )?;
+    if let Some(res) = &profiles {
         for o in outputs.iter_mut() {
-            o.finish(Some(&res))?;
+            o.finish(Some(res))?;
         }
     }
     write_summary(&out_dir.join("summary.json"), &summary)?;

@@ -8,7 +8,7 @@ use serde_json::json;
 use super::sampling::{outflow_mass, Sampling};
 use super::RunError;
 use crate::analysis::plugs::{median, PlugObservation};
-use crate::analysis::profiles::{local_minima, Profiles};
+use crate::analysis::profiles::{local_minima, ProfileResult, Profiles};
 use crate::analysis::targets;
 use crate::dem::DemConfig;
 use crate::output::figures::{self, Curve, Panel};
@@ -24,6 +24,8 @@ pub struct Ending<'a> {
     pub dem: &'a dyn DemBackend,
     pub gas: Option<&'a Coupler>,
     pub sampling: &'a Sampling,
+    /// The profiles over the selected plugs, averaged once at the end (scenes with a tube).
+    pub profiles: Option<&'a ProfileResult>,
     pub status: String,
     pub wall_time: Real,
 }
@@ -159,7 +161,11 @@ pub fn summarize(e: &Ending) -> Summary {
         accuracy,
         plugs,
         gas,
-        profiles: s.profiles.as_ref().map(profiles_json),
+        profiles: s
+            .profiles
+            .as_ref()
+            .zip(e.profiles)
+            .map(|(pr, res)| profiles_json(pr, res)),
         targets: None,
         diagnostics: dem
             .diagnostics()
@@ -175,8 +181,7 @@ pub fn summarize(e: &Ending) -> Summary {
 }
 
 /// The profiles block of the summary.
-fn profiles_json(pr: &Profiles) -> serde_json::Value {
-    let res = pr.result();
+fn profiles_json(pr: &Profiles, res: &ProfileResult) -> serde_json::Value {
     let mut rings_min: Vec<Real> = local_minima(&res.ring_porosity)
         .into_iter()
         .map(|k| res.ring_r_over_d[k])
@@ -215,6 +220,7 @@ pub fn write_figures(
     dem: &dyn DemBackend,
     gas: Option<&Coupler>,
     s: &Sampling,
+    profiles: Option<&ProfileResult>,
 ) -> Result<(), RunError> {
     if gas.is_some() {
         if !s.taps.taps.is_empty() {
@@ -273,11 +279,8 @@ pub fn write_figures(
             )?;
         }
     }
-    if let Some(pr) = &s.profiles {
-        let res = pr.result();
-        if res.plugs_used > 0 {
-            figures::profiles(&out_dir.join("profiles.png"), &res)?;
-        }
+    if let Some(res) = profiles.filter(|r| r.plugs_used > 0) {
+        figures::profiles(&out_dir.join("profiles.png"), res)?;
     }
     Ok(())
 }

@@ -93,14 +93,6 @@ impl<N: NormalLaw> TangentialSet<N> {
             TangentialSet::CoulombViscous(l) => (&l.pp_normal, &l.pw_normal),
         }
     }
-
-    /// The tangential law's name as the scene writes it.
-    pub fn tangential_name(&self) -> &'static str {
-        match self {
-            TangentialSet::History(_) => "history",
-            TangentialSet::CoulombViscous(_) => "coulomb_viscous",
-        }
-    }
 }
 
 /// The tangential law a scene asks for, with the settings only it takes.
@@ -150,14 +142,6 @@ impl LawSet {
         match self {
             LawSet::Hooke(t) => t.attach_walls(walls),
             LawSet::Hertz(t) => t.attach_walls(walls),
-        }
-    }
-
-    /// The tangential law's name as the scene writes it.
-    pub fn tangential_name(&self) -> &'static str {
-        match self {
-            LawSet::Hooke(t) => t.tangential_name(),
-            LawSet::Hertz(t) => t.tangential_name(),
         }
     }
 }
