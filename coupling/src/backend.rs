@@ -133,6 +133,13 @@ pub trait DemBackend {
     fn wall_forces(&self) -> Vec<WallForce>;
     /// Wall-clock seconds spent in each named stage so far.
     fn stage_times(&self) -> Vec<(String, f64)>;
+    /// The engine's worker team, if it has one: the coupler's per-grain stages run on it
+    /// between the engine's own phases (on cores that would otherwise wait), each member
+    /// over a fixed range of grains, so results stay reproducible for a thread count.
+    /// Engines in another process or library (LIGGGHTS, YADE) have none.
+    fn team(&self) -> Option<std::sync::Arc<crate::team::Team>> {
+        None
+    }
     /// Engine-specific figures for the run summary (name, value), e.g. neighbour builds.
     fn diagnostics(&self) -> Vec<(String, f64)> {
         Vec::new()

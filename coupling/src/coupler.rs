@@ -14,7 +14,11 @@
 //! advances the remaining steps and the gas steps over exactly that time.
 
 use crate::checks::CouplingCheck;
-use crate::grid::{deposit, interpolate_scalar, interpolate_vec3, GranularFields, TubeGrid};
+use crate::grid::{
+    deposit_part, finish_deposit, interpolate_scalar, interpolate_vec3, GranularFields, NodeSums,
+    Stencil, TubeGrid,
+};
+use crate::team::{Shared, Team};
 use crate::{
     BackendError, DemBackend, DragLaw, GasError, GasSolver, GrainInFluid, Real, StageTimer, Vec3,
 };
@@ -117,6 +121,10 @@ pub struct Coupler {
     /// Exchanges so far.
     exchanges: u64,
     forces: Vec<Vec3>,
+    /// Scratch of the deposit: each member's node sums.
+    sums: Vec<NodeSums>,
+    /// Scratch of the interpolation: each member's first grain whose drag is not finite.
+    bad: Vec<Option<usize>>,
     /// Grains with ids from this one on are new since the last exchange (None before the
     /// first): engines number grains in the order they create them.
     first_new_id: Option<u64>,
@@ -143,6 +151,8 @@ impl Coupler {
             stats: CouplingStats::default(),
             exchanges: 0,
             forces: Vec::new(),
+            sums: Vec::new(),
+            bad: Vec::new(),
             first_new_id: None,
         }
     }
@@ -195,7 +205,27 @@ impl Coupler {
     fn deposit(&mut self, dem: &dyn DemBackend) {
         let grid: &TubeGrid = self.gas.grid();
         let p = dem.particles();
-        deposit(grid, p.position, p.velocity, p.radius, &mut self.fields);
+        let (x, v, r) = (p.position, p.velocity, p.radius);
+        let n = x.len();
+        let team = dem.team();
+        let members = members_for(team.as_deref(), n);
+        self.fields.stencils.resize(n, None);
+        self.sums.resize_with(members, NodeSums::default);
+        match team {
+            Some(team) if members > 1 => {
+                let stencils = Shared::new(&mut self.fields.stencils);
+                let sums = Shared::new(&mut self.sums[..members]);
+                team.run(members, &|m| {
+                    let (lo, hi) = share(n, members, m);
+                    // SAFETY: member m alone writes stencils lo..hi and sums slot m.
+                    let (stencils, sums) =
+                        unsafe { (stencils.range(lo, hi), &mut sums.range(m, m + 1)[0]) };
+                    deposit_part(grid, &x[lo..hi], &v[lo..hi], &r[lo..hi], stencils, sums);
+                });
+            }
+            _ => deposit_part(grid, x, v, r, &mut self.fields.stencils, &mut self.sums[0]),
+        }
+        finish_deposit(grid, &self.sums[..members], &mut self.fields);
         // The grains fed since the last exchange, on the nodes (their stencils are the
         // deposit's).
         let fed = &mut self.fields.fed_solid;
@@ -250,45 +280,58 @@ impl Coupler {
         Ok(())
     }
 
-    /// Interpolate the gas fields to each grain and evaluate the drag law on it.
+    /// Interpolate the gas fields to each grain and evaluate the drag law on it (on the
+    /// engine's team when it lends one: each member over its own grains).
     fn interpolate_drag(&mut self, dem: &dyn DemBackend) -> Result<(), ExchangeError> {
         let time = dem.time();
         let grad = self.gas.pressure_gradient();
         let gas_u = self.gas.gas_velocity();
         let gas_density = self.gas.gas_density();
-        let phi = self.gas.porosity();
+        let fields = GasAtNodes {
+            porosity: self.gas.porosity(),
+            pressure_gradient: &grad,
+            gas_velocity: gas_u.as_deref(),
+            gas_density: gas_density.as_deref(),
+        };
         let p = dem.particles();
-        self.forces.clear();
-        for i in 0..p.len() {
-            // The grains have not moved since the deposit: reuse its stencils.
-            let Some(st) = self.fields.stencils[i] else {
-                self.forces.push([0.0; 3]);
-                continue;
-            };
-            let r = p.radius[i];
-            let grain = GrainInFluid {
-                volume: 4.0 / 3.0 * std::f64::consts::PI * r * r * r,
-                diameter: 2.0 * r,
-                velocity: p.velocity[i],
-                porosity: interpolate_scalar(&st, phi),
-                pressure_gradient: interpolate_vec3(&st, &grad),
-                gas_velocity: gas_u
-                    .as_ref()
-                    .map_or([0.0; 3], |u| interpolate_vec3(&st, u)),
-                gas_density: gas_density
-                    .as_ref()
-                    .map_or(0.0, |r| interpolate_scalar(&st, r)),
-            };
-            let f = self.drag.force(&grain);
-            if !(f[0].is_finite() && f[1].is_finite() && f[2].is_finite()) {
-                return Err(ExchangeError::Drag {
-                    particle_id: p.id[i],
-                    time,
-                    porosity: grain.porosity,
-                    gradient: grain.pressure_gradient,
+        let (v, r) = (p.velocity, p.radius);
+        let n = v.len();
+        let team = dem.team();
+        let members = members_for(team.as_deref(), n);
+        self.forces.resize(n, [0.0; 3]);
+        self.bad.clear();
+        self.bad.resize(members, None);
+        let (drag, stencils) = (&*self.drag, &self.fields.stencils[..]);
+        match team {
+            Some(team) if members > 1 => {
+                let forces = Shared::new(&mut self.forces);
+                let bad = Shared::new(&mut self.bad);
+                team.run(members, &|m| {
+                    let (lo, hi) = share(n, members, m);
+                    // SAFETY: member m alone writes forces lo..hi and slot m.
+                    let (forces, bad) =
+                        unsafe { (forces.range(lo, hi), &mut bad.range(m, m + 1)[0]) };
+                    *bad = drag_on(
+                        drag,
+                        &fields,
+                        &stencils[lo..hi],
+                        &v[lo..hi],
+                        &r[lo..hi],
+                        forces,
+                    )
+                    .map(|k| lo + k);
                 });
             }
-            self.forces.push(f);
+            _ => self.bad[0] = drag_on(drag, &fields, stencils, v, r, &mut self.forces),
+        }
+        if let Some(i) = self.bad.iter().flatten().copied().min() {
+            let st = self.fields.stencils[i].expect("only grains with a stencil get a drag");
+            return Err(ExchangeError::Drag {
+                particle_id: p.id[i],
+                time,
+                porosity: interpolate_scalar(&st, fields.porosity),
+                gradient: interpolate_vec3(&st, &grad),
+            });
         }
         Ok(())
     }
@@ -338,6 +381,66 @@ impl Coupler {
             })
             .collect()
     }
+}
+
+/// Members of the engine's team worth using for `n` grains (1: no team, or too few grains
+/// for the sync to pay).
+fn members_for(team: Option<&Team>, n: usize) -> usize {
+    /// Fewest grains per member worth a share of their own.
+    const MIN_GRAINS_PER_MEMBER: usize = 512;
+    team.map_or(1, |t| t.members().min((n / MIN_GRAINS_PER_MEMBER).max(1)))
+}
+
+/// Grains [lo, hi) of member m when `members` share n grains.
+fn share(n: usize, members: usize, m: usize) -> (usize, usize) {
+    (n * m / members, n * (m + 1) / members)
+}
+
+/// The gas fields on the nodes that the drag law reads.
+struct GasAtNodes<'a> {
+    porosity: &'a [Real],
+    pressure_gradient: &'a [Vec3],
+    gas_velocity: Option<&'a [Vec3]>,
+    gas_density: Option<&'a [Real]>,
+}
+
+/// The drag on each grain with a stencil (zero on the others) into `forces`; the index of
+/// the first grain whose force is not finite, if any.
+fn drag_on(
+    drag: &dyn DragLaw,
+    gas: &GasAtNodes<'_>,
+    stencils: &[Option<Stencil>],
+    velocity: &[Vec3],
+    radius: &[Real],
+    forces: &mut [Vec3],
+) -> Option<usize> {
+    for i in 0..forces.len() {
+        // The grains have not moved since the deposit: reuse its stencils.
+        let Some(st) = stencils[i] else {
+            forces[i] = [0.0; 3];
+            continue;
+        };
+        let r = radius[i];
+        let grain = GrainInFluid {
+            volume: 4.0 / 3.0 * std::f64::consts::PI * r * r * r,
+            diameter: 2.0 * r,
+            velocity: velocity[i],
+            porosity: interpolate_scalar(&st, gas.porosity),
+            pressure_gradient: interpolate_vec3(&st, gas.pressure_gradient),
+            gas_velocity: gas
+                .gas_velocity
+                .map_or([0.0; 3], |u| interpolate_vec3(&st, u)),
+            gas_density: gas
+                .gas_density
+                .map_or(0.0, |rho| interpolate_scalar(&st, rho)),
+        };
+        let f = drag.force(&grain);
+        if !(f[0].is_finite() && f[1].is_finite() && f[2].is_finite()) {
+            return Some(i);
+        }
+        forces[i] = f;
+    }
+    None
 }
 
 #[cfg(test)]

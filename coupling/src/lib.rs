@@ -17,6 +17,7 @@ pub mod drag;
 pub mod gas;
 pub mod grid;
 pub mod isolated;
+pub mod team;
 pub mod timing;
 
 pub use backend::{

@@ -100,6 +100,10 @@ pub struct DarcyGas {
     storage: Vec<Real>,
     source: Vec<Real>,
     symbolic: Option<SymbolicLlt<usize>>,
+    /// The system matrix of the last step, and where each entry of [`DarcyGas::entries`]
+    /// sits in its values: the pattern never changes, so later steps write the values in
+    /// place instead of assembling (sorting) triplets again.
+    matrix: Option<(SparseColMat<usize, Real>, Vec<usize>)>,
     /// Node indices of every grid line along the axis, e1 and e2 (for the sweeps).
     lines: [Vec<Vec<usize>>; 3],
     steps: u64,
@@ -168,6 +172,7 @@ impl DarcyGas {
             storage: vec![0.0; n],
             source: vec![0.0; n],
             symbolic: None,
+            matrix: None,
             steps: 0,
             grid,
             params,
@@ -273,6 +278,31 @@ impl DarcyGas {
     }
 
     /// Solve (diag + w L) x = rhs over the whole grid with sparse Cholesky.
+    /// (row, column) of each entry of the lower triangle of the system matrix, in the order
+    /// of [`DarcyGas::entries`]: the edges' off-diagonal entries, then the diagonal.
+    fn entry_positions(&self) -> impl Iterator<Item = (usize, usize)> + '_ {
+        let n = self.c_out.len();
+        self.edges
+            .iter()
+            .map(|e| if e.a > e.b { (e.a, e.b) } else { (e.b, e.a) })
+            .chain((0..n).map(|k| (k, k)))
+    }
+
+    /// The values of the lower triangle of diag + w (L + outflow), in the order of
+    /// [`DarcyGas::entry_positions`].
+    fn entries(&self, diag: &[Real], w: Real) -> Vec<Real> {
+        let n = diag.len();
+        let mut d: Vec<Real> = (0..n).map(|k| diag[k] + w * self.c_out[k]).collect();
+        let mut values = Vec::with_capacity(self.edges.len() + n);
+        for (e, c) in self.edges.iter().zip(&self.cond) {
+            d[e.a] += w * c;
+            d[e.b] += w * c;
+            values.push(-w * c);
+        }
+        values.extend_from_slice(&d);
+        values
+    }
+
     fn solve_monolithic(
         &mut self,
         diag: &[Real],
@@ -280,19 +310,33 @@ impl DarcyGas {
         rhs: &[Real],
     ) -> Result<Vec<Real>, String> {
         let n = rhs.len();
-        let mut trip: Vec<Triplet<usize, usize, Real>> = Vec::with_capacity(n + self.edges.len());
-        let mut d: Vec<Real> = (0..n).map(|k| diag[k] + w * self.c_out[k]).collect();
-        for (e, c) in self.edges.iter().zip(&self.cond) {
-            d[e.a] += w * c;
-            d[e.b] += w * c;
-            let (r, col) = if e.a > e.b { (e.a, e.b) } else { (e.b, e.a) };
-            trip.push(Triplet::new(r, col, -w * c));
+        let values = self.entries(diag, w);
+        if self.matrix.is_none() {
+            // The pattern once, from triplets; then where each entry landed, read off a
+            // matrix whose values are the entries' own indices (every entry is distinct).
+            let trip = |v: &dyn Fn(usize) -> Real| -> Result<SparseColMat<usize, Real>, String> {
+                let t: Vec<Triplet<usize, usize, Real>> = self
+                    .entry_positions()
+                    .enumerate()
+                    .map(|(k, (r, c))| Triplet::new(r, c, v(k)))
+                    .collect();
+                SparseColMat::<usize, Real>::try_new_from_triplets(n, n, &t)
+                    .map_err(|e| format!("matrix assembly: {e:?}"))
+            };
+            let numbered = trip(&|k| k as Real)?;
+            let mut slot = vec![0usize; values.len()];
+            for (at, &k) in numbered.val().iter().enumerate() {
+                slot[k as usize] = at;
+            }
+            let mat = trip(&|k| values[k])?;
+            self.matrix = Some((mat, slot));
+        } else if let Some((mat, slot)) = self.matrix.as_mut() {
+            let val = mat.val_mut();
+            for (k, &at) in slot.iter().enumerate() {
+                val[at] = values[k];
+            }
         }
-        for (k, v) in d.iter().enumerate() {
-            trip.push(Triplet::new(k, k, *v));
-        }
-        let mat = SparseColMat::<usize, Real>::try_new_from_triplets(n, n, &trip)
-            .map_err(|e| format!("matrix assembly: {e:?}"))?;
+        let mat = &self.matrix.as_ref().expect("just built").0;
         if self.symbolic.is_none() {
             self.symbolic = Some(
                 SymbolicLlt::try_new(mat.symbolic(), Side::Lower)

@@ -48,6 +48,33 @@ pub fn leave_verdict(cfg: &DemConfig, x: Vec3, r: Real) -> Leave {
     }
 }
 
+/// How far a grain is from leaving, m: the distance from its centre to the nearest boundary
+/// at which [`leave_verdict`] would remove it (≤ 0: it leaves). Every term is a distance to a
+/// plane or to the axis, so the margin changes no faster than the grain moves: a grain whose
+/// margin exceeds what it can move before the next look cannot have left by then.
+pub fn leave_margin(cfg: &DemConfig, x: Vec3, r: Real) -> Real {
+    match &cfg.tube {
+        Some(t) => {
+            let rel = sub(x, t.origin);
+            let s = dot(rel, t.axis);
+            let radial = norm2(sub(rel, scale(t.axis, s))).sqrt();
+            let mut margin = (t.radius + 2.0 * r - radial)
+                .min(s + t.length)
+                .min(2.0 * t.length - s);
+            if t.outlet_open {
+                margin = margin.min(t.length - s);
+            }
+            if t.inlet_open {
+                margin = margin.min(s);
+            }
+            margin
+        }
+        None => (0..3)
+            .map(|k| (x[k] - cfg.box_lo[k]).min(cfg.box_hi[k] - x[k]))
+            .fold(Real::INFINITY, Real::min),
+    }
+}
+
 /// A grain radius from the scene's size range, m.
 pub fn draw_radius(cfg: &DemConfig, rng: &mut Rng) -> Real {
     if cfg.radius_max > cfg.radius_min {
@@ -127,6 +154,38 @@ impl Feeder {
         match (cfg.inlet, cfg.tube) {
             (Some(i), Some(t)) => scale(t.axis, i.velocity),
             _ => [0.0; 3],
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::scene::Scene;
+
+    /// The margin is ≤ 0 exactly where a grain is removed, and it changes no faster than the
+    /// grain moves (what lets the engine look only at grains near a boundary).
+    #[test]
+    fn leave_margin_is_negative_where_grains_leave_and_moves_with_them() {
+        let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
+        for set in [vec![], vec!["tube.inlet_end=\"open\"".to_string()]] {
+            let scene = Scene::load(&root.join("cases/vertical_plug.toml"), &set).unwrap();
+            let cfg = crate::dem_config::dem_config(&scene).unwrap();
+            let mut rng = Rng::new(7);
+            let r = cfg.radius_max;
+            for _ in 0..20_000 {
+                let x: Vec3 = [
+                    0.02 * (rng.uniform() - 0.5),
+                    0.02 * (rng.uniform() - 0.5),
+                    1.2 * rng.uniform() - 0.1,
+                ];
+                let m = leave_margin(&cfg, x, r);
+                let leaves = !matches!(leave_verdict(&cfg, x, r), Leave::Stay);
+                assert_eq!(m <= 0.0, leaves, "at {x:?}: margin {m}");
+                let step: Vec3 = std::array::from_fn(|_| 1e-4 * (rng.uniform() - 0.5));
+                let moved = leave_margin(&cfg, [x[0] + step[0], x[1] + step[1], x[2] + step[2]], r);
+                assert!((moved - m).abs() <= norm2(step).sqrt() * (1.0 + 1e-9) + 1e-15);
+            }
         }
     }
 }

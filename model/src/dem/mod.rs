@@ -14,7 +14,9 @@ pub mod lanes;
 pub mod neighbor;
 pub mod placement;
 pub mod state;
-pub mod team;
+/// The worker team lives in plugflow-coupling: the engine lends it to the coupler's
+/// per-grain stages ([`DemBackend::team`]).
+pub use plugflow_coupling::team;
 pub mod vec3;
 pub mod walls;
 
@@ -31,7 +33,7 @@ use self::forces::{
     chunk_forces, ChunkOut, ContactScratch, ForceInputs, GrainsIn, Laws, Spill, StepSettings,
     UniformPair,
 };
-use self::inlet::{draw_radius, leave_verdict, Feeder, Leave};
+use self::inlet::{draw_radius, leave_margin, leave_verdict, Feeder, Leave};
 use self::integrate::{integrate_chunk, ChunkColumns, ChunkVerdict, PassKind, BLOWUP_SPEED};
 use self::neighbor::{CellGrid, NeighborList};
 use self::placement::place;
@@ -90,8 +92,10 @@ pub struct NativeDem {
     threads: TeamThreads,
     /// Chunk boundaries (active chunks + 1 entries), fixed between neighbour builds.
     bounds: Vec<usize>,
-    /// Scratch of the chunk cut: each grain's work (see `grain_costs`).
-    grain_cost: Vec<u64>,
+    /// The grains that may leave before the next neighbour build: closer to a leaving
+    /// boundary than one skin at the last build (grains move less than half a skin between
+    /// builds). Valid from a build until grains are added or removed.
+    may_leave: Vec<u32>,
     /// Per chunk: the verdict of the last integration pass.
     chunk_result: Vec<ChunkVerdict>,
     /// Scratch: velocities predicted to t + dt for the velocity-dependent forces.
@@ -133,7 +137,7 @@ impl NativeDem {
             }),
             threads: TeamThreads::start(cfg.threads),
             bounds: Vec::new(),
-            grain_cost: Vec::new(),
+            may_leave: Vec::new(),
             chunk_result: vec![ChunkVerdict::CLEAN; cfg.threads],
             velocity_pred: Vec::new(),
             angular_velocity_pred: Vec::new(),
@@ -208,7 +212,7 @@ impl NativeDem {
             .sum()
     }
 
-    fn rebuild(&mut self) {
+    fn rebuild(&mut self, team: &Team) {
         let keep = self.cfg.laws.uses_history();
         self.nlist.rebuild(
             &mut self.state,
@@ -216,15 +220,22 @@ impl NativeDem {
             self.cfg.skin,
             &self.cfg.walls,
             keep,
+            team,
         );
         self.rebuild_pending = false;
         let n = self.state.len();
+        if self.cfg.inlet.is_some() || self.cfg.removes_grains {
+            let (s, skin) = (&self.state, self.cfg.skin);
+            self.may_leave.clear();
+            self.may_leave.extend(
+                (0..n)
+                    .filter(|&i| leave_margin(&self.cfg, s.position[i], s.radius[i]) <= skin)
+                    .map(|i| i as u32),
+            );
+        }
         let chunks = self.cfg.threads.min((n / MIN_GRAINS_PER_CHUNK).max(1));
         if chunks > 1 {
-            self.grain_cost.clear();
-            self.grain_cost
-                .extend(grain_costs(&self.state, &self.nlist, &self.cfg.walls));
-            cut_by_cost(&self.grain_cost, chunks, &mut self.bounds);
+            cut_by_cost(&self.nlist.cost, chunks, &mut self.bounds);
         } else {
             self.bounds.clear();
             self.bounds.extend([0, n]);
@@ -262,15 +273,23 @@ impl NativeDem {
         self.rebuild_pending = true;
     }
 
-    /// Remove grains past open ends, outside the box, or escaped from the tube.
-    fn remove_leaving(&mut self) -> Real {
+    /// Remove grains past open ends, outside the box, or escaped from the tube. `near_build`:
+    /// every grain is within half a skin of where it was at the last neighbour build, and no
+    /// grain was added or removed since: then only [`NativeDem::may_leave`]'s can have left.
+    fn remove_leaving(&mut self, near_build: bool) -> Real {
         let n = self.state.len();
-        if (0..n).all(|i| {
+        let stays = |i: usize| {
             matches!(
                 leave_verdict(&self.cfg, self.state.position[i], self.state.radius[i]),
                 Leave::Stay
             )
-        }) {
+        };
+        let none_left = if near_build {
+            self.may_leave.iter().all(|&i| stays(i as usize))
+        } else {
+            (0..n).all(stays)
+        };
+        if none_left {
             return 0.0;
         }
         let mut keep: Vec<usize> = Vec::with_capacity(n);
@@ -380,6 +399,9 @@ impl NativeDem {
             result: Shared::new(&mut self.chunk_result),
         };
         let (inv_mass, inv_inertia) = (&s.inv_mass, &s.inv_inertia);
+        // The force chunks: each member integrates the grains whose forces it computed (their
+        // lines are in its cache; cutting this pass by grain count instead, to balance it,
+        // measured slower).
         let bounds = &self.bounds;
         let spills = &self.spills;
         team.run(bounds.len() - 1, &|c| {
@@ -459,7 +481,7 @@ impl NativeDem {
         let dt = self.cfg.dt;
         if self.rebuild_pending {
             let t0 = Instant::now();
-            self.rebuild();
+            self.rebuild(team);
             self.predict_velocities(false);
             self.timer.add("neighbor", t0.elapsed().as_secs_f64());
             let t0 = Instant::now();
@@ -476,13 +498,13 @@ impl NativeDem {
             if self.step.is_multiple_of(FEED_STRIDE)
                 && (self.cfg.inlet.is_some() || self.cfg.removes_grains)
             {
-                self.remove_leaving();
+                self.remove_leaving(!(moved_far || self.rebuild_pending));
                 self.feed(FEED_STRIDE as Real * dt);
             }
             let t2 = Instant::now();
             self.timer.add("inlet_outlet", (t2 - t1).as_secs_f64());
             if self.rebuild_pending || moved_far {
-                self.rebuild();
+                self.rebuild(team);
                 self.predict_velocities(true);
             }
             let t3 = Instant::now();
@@ -517,36 +539,6 @@ enum Phase {
     Kick,
     /// Finish a step and start the next.
     KickKickDrift,
-}
-
-/// The work of each grain's share of a step, in units of one pair test, for cutting the
-/// grains into chunks of equal work: its pair tests, its contacts (the laws: ~7 pair tests
-/// each), its wall contacts (~6) and its own integration (~2); the weights are the bench's
-/// stage times (`cargo bench --bench dem_bench`) over its counts. Contacts at the build stand
-/// for the contacts until the next, as grains move less than half the skin in between.
-/// Weighing pairs alone left the dense bottom of a bed 12 % more work than the top.
-fn grain_costs<'a>(
-    s: &'a ParticleState,
-    nl: &'a NeighborList,
-    walls: &'a [walls::Wall],
-) -> impl Iterator<Item = u64> + 'a {
-    const PAIR: u64 = 1;
-    const CONTACT: u64 = 7;
-    const WALL_CONTACT: u64 = 6;
-    const GRAIN: u64 = 2;
-    (0..s.len()).map(move |i| {
-        let (xi, ri) = (s.position[i], s.radius[i]);
-        let pairs = &nl.partner[nl.start[i] as usize..nl.start[i + 1] as usize];
-        let contacts = pairs
-            .iter()
-            .filter(|&&j| {
-                let rs = ri + s.radius[j as usize];
-                norm2(vec3::sub(s.position[j as usize], xi)) < rs * rs
-            })
-            .count() as u64;
-        let on_walls = walls.iter().filter(|w| w.contact(xi, ri).is_some()).count() as u64;
-        PAIR * pairs.len() as u64 + CONTACT * contacts + WALL_CONTACT * on_walls + GRAIN
-    })
 }
 
 /// Bounds of `chunks` contiguous ranges of about equal summed `cost` (chunks + 1 entries):
@@ -760,16 +752,34 @@ impl DemBackend for NativeDem {
             });
         }
         // The total force of the last step feeds the next half kick: swap the old fluid
-        // force for the new one in it rather than recomputing all contacts.
+        // force for the new one in it rather than recomputing all contacts. Each member
+        // over its own chunk (the grains whose force it computes: their lines are in its
+        // cache).
         let s = &mut self.state;
-        for i in 0..s.len() {
-            let old = s.external_force[i];
-            let new = force[i];
-            for k in 0..3 {
-                s.force[i][k] += new[k] - old[k];
+        let total = Shared::new(&mut s.force);
+        let held = Shared::new(&mut s.external_force);
+        let bounds = &self.bounds;
+        let chunks = if bounds.len() >= 2 && bounds[bounds.len() - 1] == force.len() {
+            bounds.len() - 1
+        } else {
+            1
+        };
+        let team = self.threads.team();
+        team.run(chunks, &|c| {
+            let (lo, hi) = if chunks == 1 {
+                (0, force.len())
+            } else {
+                (bounds[c], bounds[c + 1])
+            };
+            // SAFETY: the chunks are disjoint.
+            let (total, held) = unsafe { (total.range(lo, hi), held.range(lo, hi)) };
+            for ((t, h), new) in total.iter_mut().zip(held.iter_mut()).zip(&force[lo..hi]) {
+                for k in 0..3 {
+                    t[k] += new[k] - h[k];
+                }
+                *h = *new;
             }
-            s.external_force[i] = new;
-        }
+        });
         Ok(())
     }
 
@@ -810,7 +820,7 @@ impl DemBackend for NativeDem {
     }
 
     fn remove_past_outlet(&mut self) -> Result<Real, BackendError> {
-        Ok(self.remove_leaving())
+        Ok(self.remove_leaving(false))
     }
 
     fn wall_forces(&self) -> Vec<WallForce> {
@@ -827,6 +837,10 @@ impl DemBackend for NativeDem {
 
     fn stage_times(&self) -> Vec<(String, f64)> {
         self.timer.entries()
+    }
+
+    fn team(&self) -> Option<std::sync::Arc<Team>> {
+        (self.cfg.threads > 1).then(|| self.threads.team())
     }
 
     fn diagnostics(&self) -> Vec<(String, f64)> {

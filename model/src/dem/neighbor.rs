@@ -7,9 +7,112 @@
 //! carried over by the grains' stable ids.
 
 use super::state::ParticleState;
+use super::team::{Shared, Team};
 use super::vec3::{norm2, sub};
 use super::walls::Wall;
 use crate::{Real, Vec3};
+
+/// Fewest rows per member worth sharing a build (below, the sync costs more than it saves).
+const MIN_ROWS_PER_MEMBER: usize = 256;
+
+/// Rows [lo, hi) of member m when `members` share n rows.
+fn share(n: usize, members: usize, m: usize) -> (usize, usize) {
+    (n * m / members, n * (m + 1) / members)
+}
+
+/// One member's part of a build: the rows [lo, hi) of the list.
+#[derive(Debug, Clone, Default)]
+struct RowScratch {
+    /// Partners of the rows, row after row.
+    partner: Vec<u32>,
+    /// Partners per row.
+    count: Vec<u32>,
+    /// Work per row (see [`RowScratch::build`]).
+    cost: Vec<u64>,
+    /// Per wall: the rows' grains near it, ascending.
+    near: Vec<Vec<u32>>,
+}
+
+impl RowScratch {
+    /// Pairs of rows [lo, hi), their work, and the rows' grains near each wall.
+    ///
+    /// The work of a grain's share of a step, in units of one pair test: its pair tests, its
+    /// contacts (the laws: ~7 pair tests each), its wall contacts (~6) and its own
+    /// integration (~2); the weights are the bench's stage times (`cargo bench --bench
+    /// dem_bench`) over its counts. Contacts at the build stand for the contacts until the
+    /// next, as grains move less than half the skin in between. Weighing pairs alone left
+    /// the dense bottom of a bed 12 % more work than the top.
+    #[allow(clippy::too_many_arguments)]
+    fn build(
+        &mut self,
+        s: &ParticleState,
+        grid: &CellGrid,
+        cell_start: &[u32],
+        skin: Real,
+        walls: &[Wall],
+        lo: usize,
+        hi: usize,
+    ) {
+        const PAIR: u64 = 1;
+        const CONTACT: u64 = 7;
+        const WALL_CONTACT: u64 = 6;
+        const GRAIN: u64 = 2;
+        self.partner.clear();
+        self.count.clear();
+        self.cost.clear();
+        let dims = grid.dims;
+        let (x, r) = (&s.position[..], &s.radius[..]);
+        for i in lo..hi {
+            let (xi, ri) = (x[i], r[i]);
+            let c = grid.coord(xi);
+            let before = self.partner.len();
+            let mut contacts = 0u64;
+            for dz in -1i64..=1 {
+                let z = c[2] as i64 + dz;
+                if z < 0 || z >= dims[2] as i64 {
+                    continue;
+                }
+                for dy in -1i64..=1 {
+                    let y = c[1] as i64 + dy;
+                    if y < 0 || y >= dims[1] as i64 {
+                        continue;
+                    }
+                    let x0 = (c[0] as i64 - 1).max(0) as usize;
+                    let x1 = (c[0] + 1).min(dims[0] - 1);
+                    let row = grid.index([0, y as usize, z as usize]);
+                    let (a, b) = (
+                        cell_start[row + x0] as usize,
+                        cell_start[row + x1 + 1] as usize,
+                    );
+                    for j in a.max(i + 1)..b {
+                        let touch = ri + r[j];
+                        let reach = touch + skin;
+                        let d2 = norm2(sub(x[j], xi));
+                        if d2 < reach * reach {
+                            self.partner.push(j as u32);
+                            contacts += u64::from(d2 < touch * touch);
+                        }
+                    }
+                }
+            }
+            let pairs = (self.partner.len() - before) as u64;
+            self.count.push(pairs as u32);
+            self.cost.push(PAIR * pairs + CONTACT * contacts + GRAIN);
+        }
+        self.near.resize(walls.len(), Vec::new());
+        for (near, wall) in self.near.iter_mut().zip(walls) {
+            near.clear();
+            for i in lo..hi {
+                if let Some((overlap, _)) = wall.contact(x[i], r[i] + skin) {
+                    near.push(i as u32);
+                    if overlap > skin {
+                        self.cost[i - lo] += WALL_CONTACT;
+                    }
+                }
+            }
+        }
+    }
+}
 
 /// Uniform grid of cells over the simulation box.
 #[derive(Debug, Clone)]
@@ -83,10 +186,21 @@ pub struct NeighborList {
     /// can reach the wall before the next build (that comes once a grain has moved half the
     /// skin), so the force loop asks only these about that wall.
     pub near_wall: Vec<Vec<u32>>,
+    /// The work of each grain's share of a step at the build, in units of one pair test
+    /// (see [`RowScratch::build`]): what the threads' chunks are cut by.
+    pub cost: Vec<u64>,
     /// Positions at the last build, m.
     x_at_build: Vec<Vec3>,
     /// Scratch: per-cell start offsets.
     cell_start: Vec<u32>,
+    /// Scratch of the sort: each grain's cell, the next free slot per cell, the new order.
+    cell: Vec<u32>,
+    fill: Vec<u32>,
+    order: Vec<usize>,
+    /// Scratch: the grains in their new order are gathered here, then swapped in.
+    spare: ParticleState,
+    /// Scratch: each member's rows.
+    rows: Vec<RowScratch>,
     /// Live histories keyed by (smaller id, larger id), as seen from the smaller id; filled
     /// by [`NeighborList::stash_history`] before grain indices change.
     saved: Vec<((u64, u64), Vec3)>,
@@ -108,7 +222,9 @@ impl NeighborList {
         &self.x_at_build
     }
 
-    /// Sort grains by cell, rebuild the list, and carry the shear history over.
+    /// Sort grains by cell, rebuild the list, and carry the shear history over. The team's
+    /// members share the work (cells, the reordering by column, pairs and wall lists by
+    /// contiguous rows); the list does not depend on how many took part.
     pub fn rebuild(
         &mut self,
         state: &mut ParticleState,
@@ -116,78 +232,80 @@ impl NeighborList {
         skin: Real,
         walls: &[Wall],
         keep_history: bool,
+        team: &Team,
     ) {
         let n = state.len();
         if keep_history {
             self.stash_history(state);
         }
+        let members = team.members().min((n / MIN_ROWS_PER_MEMBER).max(1));
+        // 1. Each grain's cell.
+        self.cell.resize(n, 0);
+        {
+            let cell = Shared::new(&mut self.cell);
+            let x = &state.position;
+            team.run(members, &|m| {
+                let (lo, hi) = share(n, members, m);
+                // SAFETY: members write disjoint ranges.
+                let out = unsafe { cell.range(lo, hi) };
+                for (c, &x) in out.iter_mut().zip(&x[lo..hi]) {
+                    *c = grid.index(grid.coord(x)) as u32;
+                }
+            });
+        }
         // 2. Counting sort of the grains by cell (stable, hence deterministic).
-        let cells: Vec<usize> = state
-            .position
-            .iter()
-            .map(|&x| grid.index(grid.coord(x)))
-            .collect();
         let nc = grid.count();
         self.cell_start.clear();
         self.cell_start.resize(nc + 1, 0);
-        for &c in &cells {
-            self.cell_start[c + 1] += 1;
+        for &c in &self.cell {
+            self.cell_start[c as usize + 1] += 1;
         }
         for c in 0..nc {
             self.cell_start[c + 1] += self.cell_start[c];
         }
-        let mut fill = self.cell_start.clone();
-        let mut order = vec![0usize; n];
-        for (i, &c) in cells.iter().enumerate() {
-            order[fill[c] as usize] = i;
-            fill[c] += 1;
+        self.fill.clear();
+        self.fill.extend_from_slice(&self.cell_start[..nc]);
+        self.order.resize(n, 0);
+        for (i, &c) in self.cell.iter().enumerate() {
+            let slot = &mut self.fill[c as usize];
+            self.order[*slot as usize] = i;
+            *slot += 1;
         }
-        state.permute(&order, walls.len());
-        // 3. Pairs within reach, from the 27 surrounding cells.
+        self.spare.gather(state, &self.order, walls.len(), team);
+        std::mem::swap(state, &mut self.spare);
+        // 3. Pairs within reach from the 27 surrounding cells, the contacts among them, and
+        // the grains near each wall (closer than one skin: the wall's contact test with the
+        // radius grown by the skin), each member over its own rows.
+        self.rows.resize_with(team.members(), RowScratch::default);
+        {
+            let rows = Shared::new(&mut self.rows);
+            let (s, cell_start) = (&*state, &self.cell_start[..]);
+            team.run(members, &|m| {
+                let (lo, hi) = share(n, members, m);
+                // SAFETY: slot m is member m's alone.
+                let out = unsafe { &mut rows.range(m, m + 1)[0] };
+                out.build(s, grid, cell_start, skin, walls, lo, hi);
+            });
+        }
+        // 4. The members' rows joined in order.
         self.start.clear();
         self.partner.clear();
+        self.cost.clear();
         self.start.push(0);
-        let dims = grid.dims;
-        for i in 0..n {
-            let xi = state.position[i];
-            let ri = state.radius[i];
-            let c = grid.coord(xi);
-            for dz in -1i64..=1 {
-                let z = c[2] as i64 + dz;
-                if z < 0 || z >= dims[2] as i64 {
-                    continue;
-                }
-                for dy in -1i64..=1 {
-                    let y = c[1] as i64 + dy;
-                    if y < 0 || y >= dims[1] as i64 {
-                        continue;
-                    }
-                    let x0 = (c[0] as i64 - 1).max(0) as usize;
-                    let x1 = (c[0] + 1).min(dims[0] - 1);
-                    let row = grid.index([0, y as usize, z as usize]);
-                    let (s, e) = (
-                        self.cell_start[row + x0] as usize,
-                        self.cell_start[row + x1 + 1] as usize,
-                    );
-                    for j in s.max(i + 1)..e {
-                        let reach = ri + state.radius[j] + skin;
-                        if norm2(sub(state.position[j], xi)) < reach * reach {
-                            self.partner.push(j as u32);
-                        }
-                    }
-                }
-            }
-            self.start.push(self.partner.len() as u32);
-        }
-        // 4. Grains near each wall: closer than one skin (the wall's contact test with the
-        // radius grown by the skin).
         self.near_wall.resize(walls.len(), Vec::new());
-        for (near, wall) in self.near_wall.iter_mut().zip(walls) {
+        for near in &mut self.near_wall {
             near.clear();
-            near.extend((0..n).filter_map(|i| {
-                let grown = state.radius[i] + skin;
-                wall.contact(state.position[i], grown).map(|_| i as u32)
-            }));
+        }
+        for rows in &self.rows[..members] {
+            for &count in &rows.count {
+                let last = *self.start.last().expect("starts with 0");
+                self.start.push(last + count);
+            }
+            self.partner.extend_from_slice(&rows.partner);
+            self.cost.extend_from_slice(&rows.cost);
+            for (near, mine) in self.near_wall.iter_mut().zip(&rows.near) {
+                near.extend_from_slice(mine);
+            }
         }
         // 5. Restore histories.
         self.history.clear();

@@ -1,5 +1,6 @@
 //! Grain state in plain structure-of-arrays containers. Steppers take it by `&mut`.
 
+use super::team::{Shared, Team};
 use crate::{Real, Vec3};
 
 /// All per-grain arrays; index `i` is the same grain in every array. The order changes when
@@ -85,5 +86,59 @@ impl ParticleState {
                     .extend_from_slice(&old[k * walls..(k + 1) * walls]);
             }
         }
+    }
+
+    /// Make this state `src` reordered so that index `k` holds `src`'s grain `order[k]`
+    /// (every grain of `src` once), reusing this state's buffers. The team's members share
+    /// the new indices in equal contiguous ranges (the ranges of the per-grain passes that
+    /// follow, so each member's grains land in its own cache); a copy does not depend on
+    /// who made it.
+    pub fn gather(&mut self, src: &ParticleState, order: &[usize], walls: usize, team: &Team) {
+        fn column<T: Copy + Default>(dst: &mut Vec<T>, len: usize) -> Shared<T> {
+            dst.resize(len, T::default());
+            Shared::new(dst)
+        }
+        fn copy<T: Copy>(dst: &Shared<T>, src: &[T], order: &[usize], lo: usize, hi: usize) {
+            // SAFETY: members write disjoint ranges lo..hi, inside one `Team::run`.
+            let dst = unsafe { dst.range(lo, hi) };
+            for (d, &k) in dst.iter_mut().zip(&order[lo..hi]) {
+                *d = src[k];
+            }
+        }
+        let n = order.len();
+        let id = column(&mut self.id, n);
+        let position = column(&mut self.position, n);
+        let velocity = column(&mut self.velocity, n);
+        let angular_velocity = column(&mut self.angular_velocity, n);
+        let force = column(&mut self.force, n);
+        let torque = column(&mut self.torque, n);
+        let external_force = column(&mut self.external_force, n);
+        let radius = column(&mut self.radius, n);
+        let mass = column(&mut self.mass, n);
+        let inv_mass = column(&mut self.inv_mass, n);
+        let inv_inertia = column(&mut self.inv_inertia, n);
+        let wall_history = column(&mut self.wall_history, n * walls);
+        let members = team.members().min((n / 256).max(1));
+        team.run(members, &|m| {
+            let (lo, hi) = (n * m / members, n * (m + 1) / members);
+            copy(&id, &src.id, order, lo, hi);
+            copy(&position, &src.position, order, lo, hi);
+            copy(&velocity, &src.velocity, order, lo, hi);
+            copy(&angular_velocity, &src.angular_velocity, order, lo, hi);
+            copy(&force, &src.force, order, lo, hi);
+            copy(&torque, &src.torque, order, lo, hi);
+            copy(&external_force, &src.external_force, order, lo, hi);
+            copy(&radius, &src.radius, order, lo, hi);
+            copy(&mass, &src.mass, order, lo, hi);
+            copy(&inv_mass, &src.inv_mass, order, lo, hi);
+            copy(&inv_inertia, &src.inv_inertia, order, lo, hi);
+            if walls > 0 {
+                // SAFETY: as in `copy`.
+                let dst = unsafe { wall_history.range(lo * walls, hi * walls) };
+                for (d, &k) in dst.chunks_exact_mut(walls).zip(&order[lo..hi]) {
+                    d.copy_from_slice(&src.wall_history[k * walls..(k + 1) * walls]);
+                }
+            }
+        });
     }
 }

@@ -1,4 +1,5 @@
-//! A persistent team of worker threads for the DEM step.
+//! A persistent team of worker threads for the DEM step, lent to the coupler's per-grain
+//! stages (deposit, interpolation) by an engine that has one ([`crate::DemBackend::team`]).
 //!
 //! A DEM step of a few thousand grains lasts ~100 µs; waking a sleeping pool thread for each
 //! of its parallel phases costs a good part of that (rayon measured 1.1–1.5× on two cores).
