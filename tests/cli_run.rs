@@ -487,3 +487,35 @@ fn interrupt_ends_the_run_with_every_output_written() {
     );
     let _ = std::fs::remove_dir_all(&out);
 }
+
+/// A run that ends before its settling time has no window to average over: its means are
+/// `null` (never 0.0, which reads as a measurement), its target rows unmeasured and outside,
+/// and the terminal says so naming both times. (Issue 26: `--duration 2` with a 6 s
+/// settling time reported Δp 0.0 and 0.0 grains with 1027 grains in the tube.)
+#[test]
+fn means_over_an_empty_window_are_null_with_a_warning() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let case = root.join("cases/vertical_plug.toml");
+    let (code, text, out, s) = common::run_case(
+        case.to_str().unwrap(),
+        "empty_window",
+        &["--duration", "0.05"],
+    );
+    assert_eq!(code, 0, "{text}");
+    assert!(s["particles_in_tube_mean"].is_null(), "{s}");
+    assert!(s["pressure_drop_hpa_per_m"].is_null(), "{s}");
+    assert!(
+        s["particles_final"].as_u64().unwrap() > 0,
+        "grains were there: {s}"
+    );
+    for row in s["targets"].as_array().unwrap() {
+        if row["id"] == "V1" || row["id"] == "V2" {
+            assert!(row["measured"].is_null() && row["inside"] == false, "{row}");
+        }
+    }
+    assert!(
+        text.contains("no sample after the settling time (6 s; the run ended at 0.05"),
+        "{text}"
+    );
+    std::fs::remove_dir_all(&out).ok();
+}

@@ -75,20 +75,34 @@ pub fn main(a: RunArgs) -> ExitCode {
 
 /// The run's headline numbers on the terminal.
 fn print_outcome(sm: &Summary, out_dir: &std::path::Path) {
+    if sm.particles_in_tube_mean.is_nan() {
+        eprintln!(
+            "warning: no sample after the settling time ({} s; the run ended at {} s): the \
+             means (grains in the tube, pressure drop) are not measured (null in summary.json); \
+             run longer or lower output.settling_time",
+            sm.settling_time_s, sm.simulated_time_s
+        );
+    }
     println!(
-        "done: {} s simulated in {:.1} s wall; {:.1} grains in tube (mean); outflow {:.3} kg/h; \
+        "done: {} s simulated in {:.1} s wall; {} grains in tube (mean); outflow {:.3} kg/h; \
          summary in {}",
         sm.simulated_time_s,
         sm.wall_time_s,
-        sm.particles_in_tube_mean,
+        if sm.particles_in_tube_mean.is_finite() {
+            format!("{:.1}", sm.particles_in_tube_mean)
+        } else {
+            "not measured".into()
+        },
         sm.mass_outflow_kg_per_h.unwrap_or(0.0),
         out_dir.join("summary.json").display()
     );
     if let Some(g) = &sm.gas {
-        println!(
-            "pressure drop {:.2} hPa/m (mean after the settling time)",
-            g.pressure_drop_hpa_per_m
-        );
+        if g.pressure_drop_hpa_per_m.is_finite() {
+            println!(
+                "pressure drop {:.2} hPa/m (mean after the settling time)",
+                g.pressure_drop_hpa_per_m
+            );
+        }
     }
     let taps = sm.gas.as_ref().and_then(|g| g.pressure_taps.as_ref());
     for tap in taps.and_then(|t| t.as_array()).into_iter().flatten() {

@@ -112,10 +112,12 @@ pub fn summarize(e: &Ending) -> Summary {
         _ => None,
     };
     let gas = e.gas.map(|g| GasSummary {
+        // No sample after the settling time: not measured, `null` in summary.json (NaN is
+        // written as null and read back as NaN), never 0.
         pressure_drop_hpa_per_m: if s.in_tube_n > 0 {
             s.dp_sum / s.in_tube_n as Real / 100.0
         } else {
-            0.0
+            Real::NAN
         },
         gas_mass_error_rel: g.stats.mass_error_max,
         porosity_clamped_fraction: clamped_fraction(g),
@@ -143,7 +145,7 @@ pub fn summarize(e: &Ending) -> Summary {
         particles_in_tube_mean: if s.in_tube_n > 0 {
             s.in_tube_sum / s.in_tube_n as Real
         } else {
-            0.0
+            Real::NAN
         },
         particles_final: dem.particles().len(),
         mass_outflow_kg_per_h: outflow_rate,

@@ -6,6 +6,17 @@ use crate::Real;
 use plugflow_coupling::drag::{drag_law, drag_law_names};
 
 /// Range checks that the types alone cannot express.
+/// Most grains a scene may ask for at the start.
+pub const MAX_GRAINS: u64 = 20_000_000;
+/// Most gas nodes.
+pub const MAX_GAS_NODES: usize = 4_000_000;
+/// Most slices the sampling may cut the tube into.
+pub const MAX_SLICES: usize = 1_000_000;
+/// Widest tube, in grain diameters.
+const MAX_GRAINS_ACROSS: Real = 1e4;
+/// Longest tube, in grain diameters.
+const MAX_GRAINS_ALONG: Real = 1e7;
+
 pub(super) fn check(f: &SceneFile) -> Result<(), SceneError> {
     if f.schema_version != SCHEMA_VERSION {
         return Err(field_err(
@@ -16,10 +27,15 @@ pub(super) fn check(f: &SceneFile) -> Result<(), SceneError> {
             ),
         ));
     }
-    if f.name.trim().is_empty() || f.name.contains(['/', '\\']) {
+    if f.name.trim().is_empty()
+        || f.name.contains(['/', '\\'])
+        || f.name.chars().any(char::is_control)
+        || f.name.trim_matches('.').is_empty()
+    {
         return Err(field_err(
             "name",
-            "must be a non-empty name without path separators",
+            "must be a non-empty name without path separators or control characters, and \
+             not `.` or `..` (outputs go into a folder of that name)",
         ));
     }
     if f.duration.si <= 0.0 {
@@ -283,6 +299,35 @@ fn check_geometry(f: &SceneFile, dmax: Real) -> Result<(), SceneError> {
         if n == 0.0 {
             return Err(field_err("tube.axis", "must not be the zero vector"));
         }
+        if !n.is_finite() {
+            return Err(field_err(
+                "tube.axis",
+                "is too long to normalise (its length overflows); give a direction such as \
+                 [0, 0, 1]",
+            ));
+        }
+        // Beyond these a run cannot hold the grains or the cells it implies (every figure is
+        // far past any conveying line: 1e4 grains across, 1e7 grains along).
+        if t.diameter.si > MAX_GRAINS_ACROSS * dmax {
+            return Err(field_err(
+                "tube.diameter",
+                format!(
+                    "{:e} m is over {MAX_GRAINS_ACROSS:e} grain diameters: beyond what a DEM run \
+                     can hold",
+                    t.diameter.si
+                ),
+            ));
+        }
+        if t.length.si > MAX_GRAINS_ALONG * dmax {
+            return Err(field_err(
+                "tube.length",
+                format!(
+                    "{:e} m is over {MAX_GRAINS_ALONG:e} grain diameters: beyond what a DEM run \
+                     can hold",
+                    t.length.si
+                ),
+            ));
+        }
         match (t.slab_friction, t.slab) {
             (Some(_), None) => {
                 return Err(field_err(
@@ -366,6 +411,16 @@ fn check_feed(f: &SceneFile, dmax: Real) -> Result<(), SceneError> {
         }
     }
     if let Some(ini) = &f.initial {
+        if ini.count > MAX_GRAINS {
+            return Err(field_err(
+                "initial.count",
+                format!(
+                    "{} grains is over the limit of {MAX_GRAINS} (≈ 1 kB of memory each, and \
+                     the steps to move them)",
+                    ini.count
+                ),
+            ));
+        }
         if ini.to.si <= ini.from.si {
             return Err(field_err(
                 "initial.to",
@@ -452,6 +507,18 @@ fn check_output(f: &SceneFile) -> Result<(), SceneError> {
     if let Some(s) = f.output.slice_length {
         if s.si <= 0.0 {
             return Err(field_err("output.slice_length", "must be positive"));
+        }
+        if let Some(t) = &f.tube {
+            let slices = t.length.si / s.si;
+            if slices > MAX_SLICES as Real {
+                return Err(field_err(
+                    "output.slice_length",
+                    format!(
+                        "cuts the tube into {slices:.3e} slices, over the limit of {MAX_SLICES} \
+                         (each sample keeps a value per slice)"
+                    ),
+                ));
+            }
         }
     }
     if let Some(s) = f.output.settling_time {
@@ -547,6 +614,22 @@ fn check_gas(f: &SceneFile) -> Result<(), SceneError> {
         _ => {}
     }
     let [nz, nx, ny] = g.grid;
+    if nx == 0 || ny == 0 {
+        return Err(field_err(
+            "gas.grid",
+            "needs at least 1 node in each cross direction",
+        ));
+    }
+    let nodes = nz.saturating_mul(nx).saturating_mul(ny);
+    if nodes > MAX_GAS_NODES {
+        return Err(field_err(
+            "gas.grid",
+            format!(
+                "{nz} × {nx} × {ny} = {nodes} nodes is over the limit of {MAX_GAS_NODES} (the \
+                 gas keeps ~40 fields and a factorised matrix per node)"
+            ),
+        ));
+    }
     if nz < 2 {
         return Err(field_err(
             "gas.grid",
@@ -595,6 +678,14 @@ fn check_gas(f: &SceneFile) -> Result<(), SceneError> {
             return Err(field_err("gas.theta", "only the theta scheme takes it"))
         }
         _ => {}
+    }
+    if g.scheme == GasScheme::CrankNicolson && g.solver == GasSolverPath::Splitting {
+        return Err(field_err(
+            "gas.solver",
+            "`splitting` with the `crank_nicolson` scheme is unstable (Crank–Nicolson does not \
+             damp the splitting's error: the vertical case blew up at 0.35 s); use \
+             `monolithic`, or the `bdf2` or `backward_euler` scheme",
+        ));
     }
     let (lo, hi) = (g.porosity_min.0, g.porosity_max.0);
     if !(lo > 0.0 && lo < hi && hi < 1.0) {
