@@ -175,6 +175,12 @@ pub fn run_variants(
     while next < sets.len() || !running.is_empty() {
         while running.len() < opts.jobs.max(1) && next < sets.len() {
             let dir = opts.out_dir.join(format!("{next:03}"));
+            // A summary left by an earlier sweep into this folder must not stand for this
+            // variant: only the child started here may write the one read below.
+            let stale = dir.join("summary.json");
+            if stale.exists() {
+                std::fs::remove_file(&stale).map_err(|e| io(&stale, &e))?;
+            }
             let log = std::fs::File::create(opts.out_dir.join(format!("{next:03}.log")))
                 .map_err(|e| io(&opts.out_dir, &e))?;
             let log2 = log.try_clone().map_err(|e| io(&opts.out_dir, &e))?;
@@ -220,10 +226,16 @@ pub fn run_variants(
     Ok(variants
         .into_iter()
         .enumerate()
-        .map(|(k, settings)| VariantRun {
-            settings,
-            summary: Summary::read(&opts.out_dir.join(format!("{k:03}")).join("summary.json")).ok(),
-            exit: exit[k],
+        .map(|(k, settings)| {
+            let summary =
+                Summary::read(&opts.out_dir.join(format!("{k:03}")).join("summary.json")).ok();
+            // A run that exits with an error never counts as completed, whatever it wrote.
+            let summary = summary.filter(|s| exit[k] == Some(0) || !s.completed());
+            VariantRun {
+                settings,
+                summary,
+                exit: exit[k],
+            }
         })
         .collect())
 }

@@ -429,7 +429,8 @@ fn study_measures_error_against_run_time() {
 
 #[test]
 fn interrupt_ends_the_run_with_every_output_written() {
-    // Ctrl-C (SIGINT) in the middle of a 60 s run: the run ends at its next sample, writes
+    // Ctrl-C (SIGINT) in the middle of a 60 s run: the run ends within a piece of 500 steps
+    // (a last sample where it stopped), writes
     // the summary (status "interrupted at t = …", the simulated time so far), the figures
     // and run.h5, and exits with 130 (the shell's code for an interrupt).
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));
@@ -518,4 +519,109 @@ fn means_over_an_empty_window_are_null_with_a_warning() {
         "{text}"
     );
     std::fs::remove_dir_all(&out).ok();
+}
+
+/// A run into a folder that holds an older run's outputs first removes them: the old
+/// summary cannot survive beside the new run's `run.h5` (issue 26: a killed re-run left a
+/// complete old summary beside a shorter new file), nor old snapshots join the new series.
+/// Files a run does not write stay.
+#[test]
+fn a_run_clears_the_previous_run_s_outputs_first() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let case = root.join("cases/vertical_dry_feed.toml");
+    let out = std::env::temp_dir().join(format!("plugflow_rerun_{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&out);
+    std::fs::create_dir_all(&out).unwrap();
+    std::fs::write(
+        out.join("summary.json"),
+        "{\"status\": \"completed\", \"old\": true}",
+    )
+    .unwrap();
+    std::fs::write(out.join("particles_999999.vtk"), "old").unwrap();
+    std::fs::write(out.join("notes.txt"), "mine").unwrap();
+    let (code, text) = plugflow(&[
+        "run",
+        case.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+        "--quiet",
+        "--duration",
+        "0.01",
+    ]);
+    assert_eq!(code, 0, "{text}");
+    let s = common::read_summary(&out);
+    assert!(s.get("old").is_none(), "the old summary survived: {s}");
+    assert!(!out.join("particles_999999.vtk").exists());
+    assert_eq!(
+        std::fs::read_to_string(out.join("notes.txt")).unwrap(),
+        "mine"
+    );
+    std::fs::remove_dir_all(&out).ok();
+}
+
+/// SIGTERM stops a run within about a second whatever the sample interval (issue 26: the
+/// stop flag was read only at the next sample, minutes away on a long interval); the summary
+/// and run.h5 end at the time it stopped.
+#[test]
+fn sigterm_stops_within_a_second_whatever_the_sample_interval() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let out = std::env::temp_dir().join(format!("plugflow-sigterm-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&out);
+    let case = root.join("cases/vertical_plug.toml");
+    let child = std::process::Command::new(env!("CARGO_BIN_EXE_plugflow"))
+        .args([
+            "run",
+            case.to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+            "--duration",
+            "20",
+            // One sample every 10 s simulated: ~40 s of wall time or more on one thread.
+            "--set",
+            "output.sample_interval=10 s",
+            "--set",
+            "output.settling_time=0 s",
+            "--set",
+            "dem.threads=1",
+            "--quiet",
+        ])
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    let start = std::time::Instant::now();
+    while !out.join("run.h5").exists() && start.elapsed().as_secs() < 60 {
+        std::thread::sleep(std::time::Duration::from_millis(100));
+    }
+    std::thread::sleep(std::time::Duration::from_secs(1));
+    let signalled = std::time::Instant::now();
+    let killed = std::process::Command::new("kill")
+        .args(["-TERM", &child.id().to_string()])
+        .status()
+        .unwrap();
+    assert!(killed.success());
+    let o = child.wait_with_output().unwrap();
+    let took = signalled.elapsed().as_secs_f64();
+    let text = String::from_utf8_lossy(&o.stderr).to_string();
+    // A piece is 500 steps (~10 ms here); writing the figures and run.h5 takes the rest.
+    // 5 s leaves room for a loaded CI machine; the old behaviour took the whole sample.
+    assert!(took < 5.0, "stopped {took:.1} s after SIGTERM: {text}");
+    let s: serde_json::Value = common::read_summary(&out);
+    let t = s["simulated_time_s"].as_f64().unwrap();
+    assert!(t > 0.0 && t < 10.0, "simulated {t} s: {s}");
+    assert!(
+        s["status"]
+            .as_str()
+            .unwrap()
+            .starts_with("interrupted at t ="),
+        "{s}"
+    );
+    let f = hdf5::File::open(out.join("run.h5")).unwrap();
+    let time: Vec<f64> = f.dataset("time").unwrap().read_raw().unwrap();
+    assert!(
+        (time.last().unwrap() - t).abs() < 1e-9,
+        "{:?} vs {t}",
+        time.last()
+    );
+    let _ = std::fs::remove_dir_all(&out);
 }

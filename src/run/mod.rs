@@ -73,11 +73,6 @@ pub struct RunOutcome {
 
 /// Run a scene to its end.
 pub fn run(scene: &Scene, opts: &RunOptions) -> Result<RunOutcome, RunError> {
-    let Setup {
-        config: cfg,
-        engine: mut dem,
-        coupler: mut gas,
-    } = setup::build(scene)?;
     let out_dir = opts
         .out_dir
         .clone()
@@ -86,6 +81,12 @@ pub fn run(scene: &Scene, opts: &RunOptions) -> Result<RunOutcome, RunError> {
         path: out_dir.display().to_string(),
         source,
     })?;
+    clear_previous_outputs(&out_dir)?;
+    let Setup {
+        config: cfg,
+        engine: mut dem,
+        coupler: mut gas,
+    } = setup::build(scene)?;
     let f = &scene.file;
     let duration = opts.duration.unwrap_or(f.duration.si);
     let dt = dem.time_step();
@@ -138,19 +139,37 @@ pub fn run(scene: &Scene, opts: &RunOptions) -> Result<RunOutcome, RunError> {
     let mut failure = None;
     while done < total_steps {
         let n = per_sample.min(total_steps - done);
-        // The step: the coupled one with gas, the DEM's alone without.
-        let stepped = match gas.as_mut() {
-            Some(g) => g.advance(dem.as_mut(), n),
-            None => dem.advance(n).map_err(|source| StepError::Backend {
-                time: dem.time(),
-                source,
-            }),
+        // The step: the coupled one with gas, the DEM's alone without. With gas in pieces of
+        // whole coupling intervals (the same steps as one call), so that Ctrl-C or SIGTERM is
+        // seen within a piece, not only at the next sample; without gas one piece per sample
+        // (a DEM-only sample is short: the sample interval's steps of a gas-free scene).
+        let piece = match &gas {
+            Some(g) => g.substeps * STEPS_PER_PIECE.div_ceil(g.substeps),
+            None => n.max(STEPS_PER_PIECE),
         };
+        let mut left = n;
+        let mut stepped = Ok(());
+        while left > 0 && stepped.is_ok() {
+            if INTERRUPT.load(std::sync::atomic::Ordering::Relaxed) {
+                break;
+            }
+            let k = piece.min(left);
+            stepped = match gas.as_mut() {
+                Some(g) => g.advance(dem.as_mut(), k),
+                None => dem.advance(k).map_err(|source| StepError::Backend {
+                    time: dem.time(),
+                    source,
+                }),
+            };
+            left -= k;
+        }
         if let Err(e) = stepped {
             failure = Some(RunError::Step(e));
             break;
         }
-        done += n;
+        // (Interrupted inside the sample, `left > 0`: the sample is taken where the run
+        // stopped, and the check below ends the run.)
+        done += n - left;
         let snapshot_due = samples_per_snapshot.is_some_and(|k| samples_taken.is_multiple_of(k));
         let seen = match sampling.sample(
             &cfg,
@@ -238,4 +257,43 @@ fn write_summary(path: &Path, s: &Summary) -> Result<(), RunError> {
         path: path.display().to_string(),
         source,
     })
+}
+
+/// DEM steps between looks at the stop flag within a sample (rounded up to whole coupling
+/// intervals): ~0.1 s of wall time for 10 000 grains on one core.
+const STEPS_PER_PIECE: u64 = 500;
+
+/// The files a run writes into its folder (besides `particles_NNNNNN.vtk`).
+const RUN_OUTPUTS: [&str; 9] = [
+    "summary.json",
+    "run.h5",
+    "plug_statistics.png",
+    "porosity_tz.csv",
+    "porosity_tz.png",
+    "pressure_drop.png",
+    "pressure_taps.csv",
+    "pressure_taps.png",
+    "profiles.png",
+];
+
+/// Remove what an earlier run left in `dir` before this one writes there: a run killed
+/// part-way must not leave the old, complete summary beside its own shorter `run.h5`, and
+/// the old run's extra snapshots must not join this run's series. Other files stay.
+fn clear_previous_outputs(dir: &Path) -> Result<(), RunError> {
+    let entries = std::fs::read_dir(dir).map_err(|source| RunError::Io {
+        path: dir.display().to_string(),
+        source,
+    })?;
+    for entry in entries.flatten() {
+        let name = entry.file_name();
+        let name = name.to_string_lossy();
+        let snapshot = name.starts_with("particles_") && name.ends_with(".vtk");
+        if snapshot || RUN_OUTPUTS.contains(&name.as_ref()) {
+            std::fs::remove_file(entry.path()).map_err(|source| RunError::Io {
+                path: entry.path().display().to_string(),
+                source,
+            })?;
+        }
+    }
+    Ok(())
 }
