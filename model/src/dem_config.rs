@@ -181,7 +181,7 @@ fn time_step(
     // 1000 grains take ~4 days at 3e7 particle-steps/s); what was meant is surely else.
     const MAX_STEPS: Real = 1e10;
     let steps = f.duration.si / dt;
-    if !(steps <= MAX_STEPS) {
+    if steps.is_nan() || steps > MAX_STEPS {
         let (field, why) = if derived {
             (
                 "dem.dt_fraction",
