@@ -466,9 +466,15 @@ fn d_vertical_plug_first_second() {
     assert!(dn > 0.0, "native Δp {dn}");
     for (k, engine) in EXTERNAL.iter().enumerate() {
         let (ne, de, _) = results[k + 1];
+        // No grain leaves in the first second: the grains in the tube are the grains fed,
+        // and every engine must feed what the scene asks. 2 %: LIGGGHTS inserts a batch
+        // every 5 ms (2.6 grains at 514/s) and drops what its placement misses in the
+        // filling slab (510 of 513 here); it fed 7 % (vertical) and 32 % (horizontal) less
+        // while its region was one radius too narrow and it tried 50 times per grain, which
+        // the old 15 % let through.
         assert!(
-            (nn - ne).abs() / nn < 0.15,
-            "grains native {nn} vs {engine} {ne}"
+            (nn - ne).abs() / nn < 0.02,
+            "grains fed: native {nn} vs {engine} {ne}"
         );
         assert!(
             (dn - de).abs() / dn < 0.15,

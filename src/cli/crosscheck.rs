@@ -57,7 +57,11 @@ pub fn main(a: CrosscheckArgs) -> ExitCode {
                 s.len(),
                 out.join("crosscheck.md").display()
             );
-            if ok == s.len() {
+            let departures = crosscheck::feed_departures(&engines, &s);
+            for d in &departures {
+                eprintln!("crosscheck: {d}");
+            }
+            if ok == s.len() && departures.is_empty() {
                 ExitCode::SUCCESS
             } else {
                 ExitCode::FAILURE

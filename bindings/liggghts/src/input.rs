@@ -279,11 +279,18 @@ pub fn map(scene: &Scene, cfg: &DemConfig) -> Result<Mapped, Refusal> {
                 AXES[a],
                 others[0],
                 others[1],
-                t.radius - r,
+                // The tube's own radius: with `all_in yes` LIGGGHTS keeps the whole grain in
+                // the region, so centres lie within R − r and r of the slab's ends, as the
+                // built-in inlet places them. (A region of R − r with all_in left centres
+                // only R − 2r: 56 % of the cross-section, and LIGGGHTS fed 348 grains of 514
+                // in the horizontal case's first second.)
+                t.radius,
                 lo_s.min(hi_s),
                 lo_s.max(hi_s)
             ));
-            // A batch every 5 ms: a few grains per batch at the seeds' feed rates.
+            // A batch every 5 ms: a few grains per batch at the seeds' feed rates; 300
+            // placement attempts per grain, as the built-in inlet makes (LIGGGHTS's default
+            // of 50 drops grains once the slab holds a resting bed).
             let every = ((5e-3 / cfg.dt).round() as u64).max(1);
             let v = [
                 t.axis[0] * inl.velocity,
@@ -291,7 +298,7 @@ pub fn map(scene: &Scene, cfg: &DemConfig) -> Result<Mapped, Refusal> {
                 t.axis[2] * inl.velocity,
             ];
             push(format!(
-                "fix pf_ins all insert/rate/region seed 49979687 distributiontemplate pf_pdd nparticles INF massrate {:e} insert_every {every} overlapcheck yes all_in yes vel constant {:e} {:e} {:e} region pf_inlet ntry_mc 10000",
+                "fix pf_ins all insert/rate/region seed 49979687 distributiontemplate pf_pdd nparticles INF massrate {:e} insert_every {every} overlapcheck yes all_in yes maxattempt 300 vel constant {:e} {:e} {:e} region pf_inlet ntry_mc 10000",
                 inl.rate * m,
                 v[0],
                 v[1],
