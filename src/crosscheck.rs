@@ -118,6 +118,9 @@ pub fn feed_departures(engines: &[String], s: &[Option<Summary>]) -> Vec<String>
         .collect()
 }
 
+/// One of a summary's grain counters.
+type CountOf = fn(&Summary) -> Option<u64>;
+
 fn write_report(
     dir: &Path,
     scene_path: &Path,
@@ -146,7 +149,7 @@ fn write_report(
             .join(" | ")
     ));
     // What entered and left first: an engine that feeds otherwise runs another scene.
-    let counts: [(&str, fn(&Summary) -> Option<u64>); 3] = [
+    let counts: [(&str, CountOf); 3] = [
         ("grains fed", |v| v.grains_fed),
         ("grains out", |v| v.grains_out),
         ("grains lost", |v| v.grains_lost),
