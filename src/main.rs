@@ -38,11 +38,11 @@ enum Command {
 }
 
 fn main() -> ExitCode {
-    match Cli::parse().command {
+    cli::finish(match Cli::parse().command {
         Command::Run(a) => cli::run::main(a),
         Command::Sweep(a) => cli::sweep::main(a),
         Command::Crosscheck(a) => cli::crosscheck::main(a),
         Command::Study(a) => cli::study::main(a),
         Command::Validate(a) => cli::validate::main(a),
-    }
+    })
 }

@@ -96,3 +96,24 @@ fn overrides_reach_any_field_and_are_checked() {
     assert_eq!(code, 2);
     assert!(err.contains("nonsense"), "{err}");
 }
+
+/// A full standard output (`plugflow validate … > /dev/full`) ends with exit 1 and a
+/// message, not a panic (exit 101, as `println!` gives); the check itself still ran.
+#[test]
+fn a_full_stdout_is_an_error_not_a_panic() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let Ok(full) = std::fs::OpenOptions::new().write(true).open("/dev/full") else {
+        eprintln!("no /dev/full on this system: nothing to test");
+        return;
+    };
+    let out = Command::new(env!("CARGO_BIN_EXE_plugflow"))
+        .arg("validate")
+        .arg(root.join("cases/vertical_plug.toml"))
+        .stdout(full)
+        .output()
+        .expect("run plugflow");
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{err}");
+    assert!(err.contains("could not write to standard output"), "{err}");
+    assert!(!err.contains("panicked"), "{err}");
+}

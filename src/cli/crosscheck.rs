@@ -52,7 +52,7 @@ pub fn main(a: CrosscheckArgs) -> ExitCode {
                 .iter()
                 .filter(|v| v.as_ref().is_some_and(|v| v.completed()))
                 .count();
-            println!(
+            say!(
                 "crosscheck: {ok} of {} engines completed; {}",
                 s.len(),
                 out.join("crosscheck.md").display()

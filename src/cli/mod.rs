@@ -1,5 +1,17 @@
 //! The subcommands of the `plugflow` command line, one file each, and what they share.
 
+/// `println!` that does not panic: a failed write to standard output (a closed pipe, a full
+/// disk: `plugflow validate … > /dev/full`) is remembered, and the command still finishes its
+/// work and then exits 1 saying so (`println!` exits 101 with a panic).
+macro_rules! say {
+    () => {
+        $crate::cli::say(format_args!(""))
+    };
+    ($($t:tt)*) => {
+        $crate::cli::say(format_args!($($t)*))
+    };
+}
+
 pub mod crosscheck;
 pub mod run;
 pub mod study;
@@ -8,6 +20,29 @@ pub mod validate;
 
 use std::path::PathBuf;
 use std::process::ExitCode;
+use std::sync::atomic::{AtomicBool, Ordering};
+
+/// Some write to standard output failed.
+static STDOUT_FAILED: AtomicBool = AtomicBool::new(false);
+
+/// One line to standard output (see `say!`).
+pub fn say(line: std::fmt::Arguments<'_>) {
+    use std::io::Write;
+    if writeln!(std::io::stdout(), "{line}").is_err() {
+        STDOUT_FAILED.store(true, Ordering::Relaxed);
+    }
+}
+
+/// The command's exit code, made a failure when some of its output could not be written.
+pub fn finish(code: ExitCode) -> ExitCode {
+    use std::io::Write;
+    let flushed = std::io::stdout().flush().is_ok();
+    if STDOUT_FAILED.load(Ordering::Relaxed) || !flushed {
+        eprintln!("error: could not write to standard output (closed or full)");
+        return ExitCode::FAILURE;
+    }
+    code
+}
 
 pub use plugflow::scene::Scene;
 

@@ -83,7 +83,7 @@ fn print_outcome(sm: &Summary, out_dir: &std::path::Path) {
             sm.settling_time_s, sm.simulated_time_s
         );
     }
-    println!(
+    say!(
         "done: {} s simulated in {:.1} s wall; {} grains in tube (mean); outflow {:.3} kg/h; \
          summary in {}",
         sm.simulated_time_s,
@@ -98,7 +98,7 @@ fn print_outcome(sm: &Summary, out_dir: &std::path::Path) {
     );
     if let Some(g) = &sm.gas {
         if g.pressure_drop_hpa_per_m.is_finite() {
-            println!(
+            say!(
                 "pressure drop {:.2} hPa/m (mean after the settling time)",
                 g.pressure_drop_hpa_per_m
             );
@@ -111,7 +111,7 @@ fn print_outcome(sm: &Summary, out_dir: &std::path::Path) {
                 .as_f64()
                 .map_or_else(|| "—".to_string(), |v| format!("{:.2}", v / 100.0))
         };
-        println!(
+        say!(
             "{} ({}–{} m): max {} mbar, min {} mbar, {} peaks (median {} mbar), troughs \
              median {} mbar (after the settling time)",
             tap["name"].as_str().unwrap_or("?"),
@@ -125,12 +125,16 @@ fn print_outcome(sm: &Summary, out_dir: &std::path::Path) {
         );
     }
     if let Some(targets) = &sm.targets {
-        println!(
+        say!(
             "{:<4} {:<42} {:>10} {:>8} {:>16}  inside",
-            "row", "what", "measured", "paper", "band"
+            "row",
+            "what",
+            "measured",
+            "paper",
+            "band"
         );
         for t in targets {
-            println!(
+            say!(
                 "{:<4} {:<42} {:>10} {:>8} {:>16}  {}",
                 t.id,
                 t.what,

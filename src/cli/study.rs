@@ -124,7 +124,7 @@ pub fn main(a: StudyArgs) -> ExitCode {
     match study::study(&exe, &scene, &varies, &opts) {
         Ok(r) => {
             let failed = r.rows.iter().filter(|x| x.status != "completed").count();
-            println!(
+            say!(
                 "study: {} variants ({failed} failed), reference: {}; {}",
                 r.rows.len(),
                 r.references
@@ -135,7 +135,7 @@ pub fn main(a: StudyArgs) -> ExitCode {
                 opts.runs.out_dir.join("study.md").display()
             );
             match (target_error, r.cheapest) {
-                (Some(t), Some(k)) => println!(
+                (Some(t), Some(k)) => say!(
                     "cheapest variant with largest error ≤ {t}: {k:03} ({}), {:.1} s",
                     r.rows[k]
                         .settings
@@ -146,7 +146,7 @@ pub fn main(a: StudyArgs) -> ExitCode {
                     r.rows[k].wall_time.unwrap_or(0.0)
                 ),
                 (Some(t), None) => {
-                    println!("no variant but the reference reaches an error ≤ {t}")
+                    say!("no variant but the reference reaches an error ≤ {t}")
                 }
                 _ => {}
             }

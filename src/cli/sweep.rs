@@ -72,7 +72,7 @@ pub fn main(a: SweepArgs) -> ExitCode {
                 .iter()
                 .filter(|r| !r.as_ref().is_some_and(|r| r.completed()))
                 .count();
-            println!(
+            say!(
                 "sweep: {} variants ({} failed); {}",
                 rows.len(),
                 failed,

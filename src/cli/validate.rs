@@ -30,13 +30,16 @@ pub fn main(a: ValidateArgs) -> ExitCode {
         Ok((s, c, gas)) => {
             if let Some(g) = &gas {
                 for ch in &g.checks {
-                    println!(
+                    say!(
                         "coupling check: {}: {:.4} (limit {:.4}) {:?}",
-                        ch.name, ch.value, ch.limit, ch.verdict
+                        ch.name,
+                        ch.value,
+                        ch.limit,
+                        ch.verdict
                     );
                 }
             }
-            println!(
+            say!(
                 "ok: scene `{}`: dt = {:.3e} s ({}; limit {:.3e} s: {}), {} walls",
                 s.file.name,
                 c.dt,
