@@ -430,41 +430,20 @@ fn study_measures_error_against_run_time() {
 #[test]
 fn interrupt_ends_the_run_with_every_output_written() {
     // Ctrl-C (SIGINT) in the middle of a 60 s run: the run ends within a piece of 500 steps
-    // (a last sample where it stopped), writes
-    // the summary (status "interrupted at t = …", the simulated time so far), the figures
-    // and run.h5, and exits with 130 (the shell's code for an interrupt).
+    // (a last sample where it stopped), writes the summary (status "interrupted at t = …",
+    // the simulated time so far), the figures and run.h5, and exits with 130 (the shell's
+    // code for an interrupt).
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));
     let out = std::env::temp_dir().join(format!("plugflow-interrupt-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&out);
     let case = root.join("cases/vertical_plug.toml");
-    let child = std::process::Command::new(env!("CARGO_BIN_EXE_plugflow"))
-        .args([
-            "run",
-            case.to_str().unwrap(),
-            "--out",
-            out.to_str().unwrap(),
-            "--duration",
-            "60",
-            "--set",
-            "output.settling_time=0 s",
-            "--quiet",
-        ])
-        .stdout(std::process::Stdio::piped())
-        .stderr(std::process::Stdio::piped())
-        .spawn()
-        .unwrap();
-    // Let it run a while (run.h5 appears once the run has started).
-    let start = std::time::Instant::now();
-    while !out.join("run.h5").exists() && start.elapsed().as_secs() < 60 {
-        std::thread::sleep(std::time::Duration::from_millis(100));
-    }
-    std::thread::sleep(std::time::Duration::from_secs(2));
-    let killed = std::process::Command::new("kill")
-        .args(["-INT", &child.id().to_string()])
-        .status()
-        .unwrap();
-    assert!(killed.success());
-    let o = child.wait_with_output().unwrap();
+    let (o, _) = signalled_run(
+        &case,
+        &out,
+        &["--duration", "60", "--set", "output.settling_time=0 s"],
+        "-INT",
+        2,
+    );
     let text = format!(
         "{}{}",
         String::from_utf8_lossy(&o.stdout),
@@ -568,12 +547,10 @@ fn sigterm_stops_within_a_second_whatever_the_sample_interval() {
     let out = std::env::temp_dir().join(format!("plugflow-sigterm-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&out);
     let case = root.join("cases/vertical_plug.toml");
-    let child = std::process::Command::new(env!("CARGO_BIN_EXE_plugflow"))
-        .args([
-            "run",
-            case.to_str().unwrap(),
-            "--out",
-            out.to_str().unwrap(),
+    let (o, took) = signalled_run(
+        &case,
+        &out,
+        &[
             "--duration",
             "20",
             // One sample every 10 s simulated: ~40 s of wall time or more on one thread.
@@ -583,25 +560,10 @@ fn sigterm_stops_within_a_second_whatever_the_sample_interval() {
             "output.settling_time=0 s",
             "--set",
             "dem.threads=1",
-            "--quiet",
-        ])
-        .stdout(std::process::Stdio::piped())
-        .stderr(std::process::Stdio::piped())
-        .spawn()
-        .unwrap();
-    let start = std::time::Instant::now();
-    while !out.join("run.h5").exists() && start.elapsed().as_secs() < 60 {
-        std::thread::sleep(std::time::Duration::from_millis(100));
-    }
-    std::thread::sleep(std::time::Duration::from_secs(1));
-    let signalled = std::time::Instant::now();
-    let killed = std::process::Command::new("kill")
-        .args(["-TERM", &child.id().to_string()])
-        .status()
-        .unwrap();
-    assert!(killed.success());
-    let o = child.wait_with_output().unwrap();
-    let took = signalled.elapsed().as_secs_f64();
+        ],
+        "-TERM",
+        1,
+    );
     let text = String::from_utf8_lossy(&o.stderr).to_string();
     // A piece is 500 steps (~10 ms here); writing the figures and run.h5 takes the rest.
     // 5 s leaves room for a loaded CI machine; the old behaviour took the whole sample.
@@ -624,4 +586,41 @@ fn sigterm_stops_within_a_second_whatever_the_sample_interval() {
         time.last()
     );
     let _ = std::fs::remove_dir_all(&out);
+}
+
+/// `plugflow run CASE --out OUT ARGS --quiet`, sent `signal` `after` seconds once the run
+/// has started (run.h5 exists); its output and the seconds from the signal to its end.
+fn signalled_run(
+    case: &Path,
+    out: &Path,
+    args: &[&str],
+    signal: &str,
+    after: u64,
+) -> (std::process::Output, f64) {
+    let child = std::process::Command::new(env!("CARGO_BIN_EXE_plugflow"))
+        .args([
+            "run",
+            case.to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+        ])
+        .args(args)
+        .arg("--quiet")
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    let start = std::time::Instant::now();
+    while !out.join("run.h5").exists() && start.elapsed().as_secs() < 60 {
+        std::thread::sleep(std::time::Duration::from_millis(100));
+    }
+    std::thread::sleep(std::time::Duration::from_secs(after));
+    let signalled = std::time::Instant::now();
+    let killed = std::process::Command::new("kill")
+        .args([signal, &child.id().to_string()])
+        .status()
+        .unwrap();
+    assert!(killed.success());
+    let o = child.wait_with_output().unwrap();
+    (o, signalled.elapsed().as_secs_f64())
 }

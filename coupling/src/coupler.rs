@@ -18,7 +18,7 @@ use crate::grid::{
     deposit_part, finish_deposit, interpolate_scalar, interpolate_vec3, GranularFields, NodeSums,
     Stencil, TubeGrid,
 };
-use crate::team::{Shared, Team};
+use crate::team::{share, Shared, Team};
 use crate::{
     BackendError, DemBackend, DragLaw, GasError, GasSolver, GrainInFluid, Real, StageTimer, Vec3,
 };
@@ -388,12 +388,7 @@ impl Coupler {
 fn members_for(team: Option<&Team>, n: usize) -> usize {
     /// Fewest grains per member worth a share of their own.
     const MIN_GRAINS_PER_MEMBER: usize = 512;
-    team.map_or(1, |t| t.members().min((n / MIN_GRAINS_PER_MEMBER).max(1)))
-}
-
-/// Grains [lo, hi) of member m when `members` share n grains.
-fn share(n: usize, members: usize, m: usize) -> (usize, usize) {
-    (n * m / members, n * (m + 1) / members)
+    team.map_or(1, |t| t.members_for(n, MIN_GRAINS_PER_MEMBER))
 }
 
 /// The gas fields on the nodes that the drag law reads.

@@ -45,6 +45,12 @@ impl Team {
         self.members
     }
 
+    /// Members worth using for `n` items when each should get at least `min_each` (below,
+    /// the sync costs more than the share saves): 1 to [`Team::members`].
+    pub fn members_for(&self, n: usize, min_each: usize) -> usize {
+        self.members.min((n / min_each.max(1)).max(1))
+    }
+
     /// Run `f(c)` for members c < `active` (the caller runs c = 0) and wait for them.
     pub fn run(&self, active: usize, f: &(dyn Fn(usize) + Sync)) {
         let active = active.clamp(1, self.members);
@@ -169,6 +175,11 @@ impl Drop for TeamThreads {
             let _ = h.join();
         }
     }
+}
+
+/// Items [lo, hi) of member m when `members` share n items in equal contiguous ranges.
+pub fn share(n: usize, members: usize, m: usize) -> (usize, usize) {
+    (n * m / members, n * (m + 1) / members)
 }
 
 /// A raw view of a slice whose disjoint index ranges are handed to different members.

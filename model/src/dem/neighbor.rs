@@ -7,18 +7,13 @@
 //! carried over by the grains' stable ids.
 
 use super::state::ParticleState;
-use super::team::{Shared, Team};
+use super::team::{share, Shared, Team};
 use super::vec3::{norm2, sub};
 use super::walls::Wall;
 use crate::{Real, Vec3};
 
 /// Fewest rows per member worth sharing a build (below, the sync costs more than it saves).
-const MIN_ROWS_PER_MEMBER: usize = 256;
-
-/// Rows [lo, hi) of member m when `members` share n rows.
-fn share(n: usize, members: usize, m: usize) -> (usize, usize) {
-    (n * m / members, n * (m + 1) / members)
-}
+pub const MIN_ROWS_PER_MEMBER: usize = 256;
 
 /// One member's part of a build: the rows [lo, hi) of the list.
 #[derive(Debug, Clone, Default)]
@@ -238,7 +233,7 @@ impl NeighborList {
         if keep_history {
             self.stash_history(state);
         }
-        let members = team.members().min((n / MIN_ROWS_PER_MEMBER).max(1));
+        let members = team.members_for(n, MIN_ROWS_PER_MEMBER);
         // 1. Each grain's cell.
         self.cell.resize(n, 0);
         {

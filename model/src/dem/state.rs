@@ -1,6 +1,7 @@
 //! Grain state in plain structure-of-arrays containers. Steppers take it by `&mut`.
 
-use super::team::{Shared, Team};
+use super::neighbor::MIN_ROWS_PER_MEMBER;
+use super::team::{share, Shared, Team};
 use crate::{Real, Vec3};
 
 /// All per-grain arrays; index `i` is the same grain in every array. The order changes when
@@ -118,9 +119,9 @@ impl ParticleState {
         let inv_mass = column(&mut self.inv_mass, n);
         let inv_inertia = column(&mut self.inv_inertia, n);
         let wall_history = column(&mut self.wall_history, n * walls);
-        let members = team.members().min((n / 256).max(1));
+        let members = team.members_for(n, MIN_ROWS_PER_MEMBER);
         team.run(members, &|m| {
-            let (lo, hi) = (n * m / members, n * (m + 1) / members);
+            let (lo, hi) = share(n, members, m);
             copy(&id, &src.id, order, lo, hi);
             copy(&position, &src.position, order, lo, hi);
             copy(&velocity, &src.velocity, order, lo, hi);
