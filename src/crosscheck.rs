@@ -85,7 +85,15 @@ pub fn crosscheck(
             cmd.arg("--set").arg(x);
         }
         eprintln!("crosscheck: running on {engine} ...");
-        let status = cmd.status().map_err(|e| io(exe, &e))?;
+        if crate::children::stop_requested() {
+            eprintln!("crosscheck: stopped before {engine}");
+            summaries.push(None);
+            continue;
+        }
+        let status = cmd
+            .spawn()
+            .and_then(|mut child| crate::children::wait_passing_stop(&mut child))
+            .map_err(|e| io(exe, &e))?;
         let summary = Summary::read(&dir.join("summary.json")).ok();
         eprintln!("crosscheck: {engine}: exit {}", status.code().unwrap_or(-1));
         summaries.push(summary);

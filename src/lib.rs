@@ -10,6 +10,7 @@
 #![allow(clippy::needless_range_loop)]
 
 pub mod analysis;
+pub mod children;
 pub mod crosscheck;
 pub mod gas;
 pub mod output;

@@ -172,7 +172,18 @@ pub fn run_variants(
     let mut running: Vec<(usize, Child)> = Vec::new();
     let mut exit: Vec<Option<i32>> = vec![None; sets.len()];
     let mut next = 0;
+    let mut stopping = false;
     while next < sets.len() || !running.is_empty() {
+        // A stop (Ctrl-C, SIGTERM): no new variant starts, the running ones are asked to
+        // stop and waited for, so their outputs and this sweep's table are written.
+        if !stopping && crate::children::stop_requested() {
+            stopping = true;
+            for (k, c) in running.iter_mut() {
+                eprintln!("stop  {k:03}: asked to stop");
+                crate::children::ask_to_stop(c);
+            }
+            next = sets.len();
+        }
         while running.len() < opts.jobs.max(1) && next < sets.len() {
             let dir = opts.out_dir.join(format!("{next:03}"));
             // A summary left by an earlier sweep into this folder must not stand for this
@@ -205,7 +216,7 @@ pub fn run_variants(
             running.push((next, child));
             next += 1;
         }
-        std::thread::sleep(std::time::Duration::from_millis(100));
+        std::thread::sleep(crate::children::POLL);
         let mut still = Vec::new();
         for (k, mut c) in running {
             match c.try_wait() {
@@ -282,7 +293,10 @@ pub fn sweep(
         let status = summary
             .as_ref()
             .map(|s| s.status.clone())
-            .unwrap_or_else(|| format!("no summary (exit {:?})", run.exit));
+            .unwrap_or_else(|| match run.exit {
+                None => "not started (the sweep was stopped)".to_string(),
+                Some(code) => format!("no summary (exit {code})"),
+            });
         csv.push_str(&format!("{k:03},\"{}\"", status.replace('"', "'")));
         for c in COLUMNS {
             csv.push(',');

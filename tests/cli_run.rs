@@ -497,6 +497,24 @@ fn means_over_an_empty_window_are_null_with_a_warning() {
         text.contains("no sample after the settling time (6 s; the run ended at 0.05"),
         "{text}"
     );
+    // The same warning in the summary, for readers that never saw the terminal.
+    let warnings = s["warnings"].as_array().unwrap();
+    assert!(
+        warnings.iter().any(|w| w
+            .as_str()
+            .unwrap()
+            .starts_with("no sample after the settling time")),
+        "{s}"
+    );
+    // The inlet fed what the scene asked (rate × 0.05 s, within one slab of grains): no
+    // feed warning, and the account is in the summary.
+    let asked = s["grains_asked"].as_u64().unwrap();
+    assert!(asked > 0, "{s}");
+    assert!(
+        s["feed_backlog_grains"].as_i64().unwrap().abs() < 100,
+        "{s}"
+    );
+    assert_eq!(warnings.len(), 1, "{s}");
     std::fs::remove_dir_all(&out).ok();
 }
 
@@ -597,21 +615,33 @@ fn signalled_run(
     signal: &str,
     after: u64,
 ) -> (std::process::Output, f64) {
+    let mut all = vec![
+        "run",
+        case.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+        "--quiet",
+    ];
+    all.extend_from_slice(args);
+    signalled(&all, &out.join("run.h5"), signal, after)
+}
+
+/// `plugflow ARGS`, sent `signal` `after` seconds once `started` exists; its output and the
+/// seconds from the signal to its end.
+fn signalled(
+    args: &[&str],
+    started: &Path,
+    signal: &str,
+    after: u64,
+) -> (std::process::Output, f64) {
     let child = std::process::Command::new(env!("CARGO_BIN_EXE_plugflow"))
-        .args([
-            "run",
-            case.to_str().unwrap(),
-            "--out",
-            out.to_str().unwrap(),
-        ])
         .args(args)
-        .arg("--quiet")
         .stdout(std::process::Stdio::piped())
         .stderr(std::process::Stdio::piped())
         .spawn()
         .unwrap();
     let start = std::time::Instant::now();
-    while !out.join("run.h5").exists() && start.elapsed().as_secs() < 60 {
+    while !started.exists() && start.elapsed().as_secs() < 60 {
         std::thread::sleep(std::time::Duration::from_millis(100));
     }
     std::thread::sleep(std::time::Duration::from_secs(after));
@@ -623,4 +653,167 @@ fn signalled_run(
     assert!(killed.success());
     let o = child.wait_with_output().unwrap();
     (o, signalled.elapsed().as_secs_f64())
+}
+
+/// SIGTERM to a sweep reaches its running variant, which stops with its outputs written; no
+/// new variant starts; the sweep writes its table of what finished and exits 130; no child
+/// is left running (issue 26: the parent died and its children ran on as orphans).
+#[test]
+fn sigterm_to_a_sweep_stops_its_children_and_writes_the_table() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let out = std::env::temp_dir().join(format!("plugflow-sweep-stop-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&out);
+    let case = root.join("cases/vertical_dry_feed.toml");
+    let (o, took) = signalled(
+        &[
+            "sweep",
+            case.to_str().unwrap(),
+            "--vary",
+            "seed=1,2,3",
+            "--jobs",
+            "1",
+            "--duration",
+            "60",
+            "--out",
+            out.to_str().unwrap(),
+        ],
+        &out.join("000").join("run.h5"),
+        "-TERM",
+        1,
+    );
+    let text = String::from_utf8_lossy(&o.stderr).to_string();
+    assert_eq!(o.status.code(), Some(130), "{text}");
+    // The child stops within a second (see the run's own test); 10 s for a loaded machine.
+    assert!(took < 10.0, "stopped {took:.1} s after SIGTERM: {text}");
+    let s = common::read_summary(&out.join("000"));
+    assert!(
+        s["status"]
+            .as_str()
+            .unwrap()
+            .starts_with("interrupted at t ="),
+        "{s}"
+    );
+    let csv = std::fs::read_to_string(out.join("sweep.csv")).unwrap();
+    let rows: Vec<&str> = csv.lines().skip(1).collect();
+    assert_eq!(rows.len(), 3, "{csv}");
+    assert!(rows[0].contains("interrupted at t ="), "{csv}");
+    for r in &rows[1..] {
+        assert!(r.contains("not started (the sweep was stopped)"), "{csv}");
+    }
+    assert!(
+        !out.join("001").exists(),
+        "a variant started after the stop"
+    );
+    let orphans = std::process::Command::new("pgrep")
+        .args(["-f", out.to_str().unwrap()])
+        .output()
+        .unwrap();
+    assert!(
+        orphans.stdout.is_empty(),
+        "children still running: {}",
+        String::from_utf8_lossy(&orphans.stdout)
+    );
+    let _ = std::fs::remove_dir_all(&out);
+}
+
+/// A tube closed at its far end fills up, its inlet slab blocks, and the engine can no longer
+/// feed what `inlet.rate` asks: the summary gives the account (asked, owed) and a warning
+/// says so, instead of numbers that silently belong to a smaller feed (issue 26).
+#[test]
+fn a_blocked_inlet_is_reported_with_what_it_owes() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let case = root.join("cases/vertical_dry_feed.toml");
+    let (code, text, out, s) = common::run_case(
+        case.to_str().unwrap(),
+        "blocked_inlet",
+        &[
+            "--duration",
+            "0.6",
+            "--set",
+            "tube.length=\"0.03 m\"",
+            "--set",
+            "tube.outlet_end=\"closed\"",
+            "--set",
+            "inlet.mass_flow=\"10 kg/h\"",
+            "--set",
+            // Fast enough for the slab to carry that feed (the scene check's capacity).
+            "inlet.velocity=\"0.2 m/s\"",
+            "--set",
+            "output.settling_time=\"0.1 s\"",
+        ],
+    );
+    assert_eq!(code, 0, "{text}");
+    // 10 kg/h of 1.4 mm grains of 937 kg/m³ is ~2060 grains/s: ~1240 asked in 0.6 s, while
+    // 3 cm of the 7 mm tube hold ~500 at random close packing.
+    let asked = s["grains_asked"].as_u64().unwrap();
+    assert!((1200..1280).contains(&asked), "{s}");
+    let owed = s["feed_backlog_grains"].as_i64().unwrap();
+    let fed = s["grains_fed"].as_u64().unwrap();
+    assert_eq!(owed, asked as i64 - fed as i64, "{s}");
+    assert!(owed > 500, "the full tube still took the feed: {s}");
+    let warned = s["warnings"].as_array().unwrap().iter().any(|w| {
+        w.as_str()
+            .unwrap()
+            .contains(&format!("of the {asked} grains the inlet asked for"))
+    });
+    assert!(warned, "{s}");
+    assert!(text.contains("warning: the native engine fed"), "{text}");
+    std::fs::remove_dir_all(&out).ok();
+}
+
+/// A bed at rest in a tube closed below: the grains' forces on the walls carry exactly
+/// their weight (Newton: nothing accelerates), split between the cap below and the tube's
+/// friction (Janssen), with no net force across. The series is in `run.h5` on every sample.
+#[test]
+fn wall_forces_carry_the_weight_of_a_bed_at_rest() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let case = root.join("cases/vertical_dry_feed.toml");
+    let (code, text, out, s) = common::run_case(
+        case.to_str().unwrap(),
+        "bed_at_rest",
+        &[
+            "--duration",
+            "0.4",
+            "--set",
+            "tube.length=\"0.05 m\"",
+            "--set",
+            "tube.outlet_end=\"closed\"",
+            "--set",
+            "inlet.until=\"0 s\"",
+            "--set",
+            "initial.count=300",
+            "--set",
+            "initial.from=\"0 m\"",
+            "--set",
+            "initial.to=\"0.05 m\"",
+            // Settled by 0.25 s (300 grains fall 5 cm in ~0.1 s and come to rest).
+            "--set",
+            "output.settling_time=\"0.25 s\"",
+        ],
+    );
+    assert_eq!(code, 0, "{text}");
+    let m = 937.0 * std::f64::consts::PI / 6.0 * 1.4e-3f64.powi(3);
+    let weight = 300.0 * m * 9.81;
+    let walls = s["wall_forces_mean_n"].as_object().unwrap();
+    let sum = |k: usize| -> f64 { walls.values().map(|f| f[k].as_f64().unwrap()).sum() };
+    // 1 %: the bed still creeps (the mean over 0.15 s of samples); measured 0.1 %.
+    assert!(
+        (sum(2) + weight).abs() < 0.01 * weight,
+        "{walls:?} vs {weight}"
+    );
+    assert!(
+        sum(0).abs() < 0.01 * weight && sum(1).abs() < 0.01 * weight,
+        "{walls:?}"
+    );
+    // The tube (down its axis, the flow direction) holds part, the cap below the rest.
+    let tube = &s["tube_wall_force_mean_n"];
+    let axial = tube["axial"].as_f64().unwrap();
+    assert!(axial > 0.02 * weight && axial < weight, "{tube}");
+    let f = hdf5::File::open(out.join("run.h5")).unwrap();
+    let time: Vec<f64> = f.dataset("time").unwrap().read_raw().unwrap();
+    let series = f.dataset("walls/tube").unwrap();
+    assert_eq!(series.shape(), vec![time.len(), 3]);
+    let along: Vec<f64> = f.dataset("walls/tube_axial").unwrap().read_raw().unwrap();
+    assert_eq!(along.len(), time.len());
+    std::fs::remove_dir_all(&out).ok();
 }

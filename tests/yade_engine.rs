@@ -43,25 +43,53 @@ fn vertical(extra: &[&str]) -> Scene {
 }
 
 /// `--set dem.engine=yade` runs a case on YADE from the command line; the summary names
-/// the engine and its version, and the inlet feeds at the scene's rate.
+/// the engine and its version, and the inlet feeds at the scene's rate. It runs in a hostile
+/// Python environment: a venv first on PATH (its site-packages lack YADE's dependencies: "No
+/// module named 'future'" before issue 26), PYTHONHOME and PYTHONPATH pointing nowhere (a
+/// fatal Python start before): the embedded interpreter is Debian's whatever the user's.
 #[test]
 fn cli_runs_a_case_on_yade() {
     shim();
     let out = std::env::temp_dir().join(format!("plugflow-yade-cli-{}", std::process::id()));
-    let (code, text) = plugflow(&[
-        "run",
-        root().join("cases/vertical_plug.toml").to_str().unwrap(),
-        "--out",
-        out.to_str().unwrap(),
-        "--duration",
-        "0.3",
-        "--set",
-        "dem.engine=yade",
-        "--set",
-        "contact.tangential=history",
-        "--quiet",
-    ]);
-    assert_eq!(code, 0, "{text}");
+    // A venv's shape without the venv module: bin/python3 beside a pyvenv.cfg.
+    let venv = std::env::temp_dir().join(format!("plugflow-venv-{}", std::process::id()));
+    std::fs::create_dir_all(venv.join("bin")).unwrap();
+    std::fs::write(
+        venv.join("pyvenv.cfg"),
+        "home = /usr/bin\ninclude-system-site-packages = false\nversion = 3.11.2\n",
+    )
+    .unwrap();
+    let python = venv.join("bin/python3");
+    if !python.exists() {
+        std::os::unix::fs::symlink("/usr/bin/python3", &python).unwrap();
+    }
+    let path = format!(
+        "{}:{}",
+        venv.join("bin").display(),
+        std::env::var("PATH").unwrap_or_default()
+    );
+    let o = std::process::Command::new(env!("CARGO_BIN_EXE_plugflow"))
+        .env("PATH", path)
+        .env("PYTHONHOME", "/nonexistent")
+        .env("PYTHONPATH", "/nonexistent")
+        .args([
+            "run",
+            root().join("cases/vertical_plug.toml").to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+            "--duration",
+            "0.3",
+            "--set",
+            "dem.engine=yade",
+            "--set",
+            "contact.tangential=history",
+            "--quiet",
+        ])
+        .output()
+        .unwrap();
+    let text = String::from_utf8_lossy(&o.stderr).to_string();
+    assert_eq!(o.status.code(), Some(0), "{text}");
+    std::fs::remove_dir_all(&venv).ok();
     let s: serde_json::Value = common::read_summary(&out);
     assert_eq!(s["engine"], "yade");
     assert!(

@@ -46,7 +46,10 @@ pub trait GasSolver {
     fn porosity(&self) -> &[Real];
     /// Pressure gradient on the nodes, Pa/m.
     fn pressure_gradient(&self) -> Vec<Vec3>;
-    /// Pressure drop from inlet to outlet per length, Pa/m.
+    /// Pressure drop per length, Pa/m: the mean gradient between the first node plane z₁
+    /// (half a cell in from the inlet, its cross-section mean) and the outlet (P' = 0),
+    /// P'(z₁)/(L − z₁). Measured where the solver has a value, not extrapolated to z = 0;
+    /// every solver reports this one definition (summary, `run.h5`, targets).
     fn pressure_drop_per_length(&self) -> Real;
     /// Interstitial gas velocity on the nodes, m/s; None for solvers without one (d'Arcy).
     fn gas_velocity(&self) -> Option<Vec<Vec3>> {

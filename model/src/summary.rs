@@ -56,7 +56,20 @@ pub struct Summary {
     pub grains_fed: Option<u64>,
     pub grains_out: Option<u64>,
     pub grains_lost: Option<u64>,
+    /// Grains the scene's inlet asked for up to the end (rate × feeding time; scenes with an
+    /// inlet), and what it still owed: asked − fed.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub grains_asked: Option<u64>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub feed_backlog_grains: Option<i64>,
     pub threads: usize,
+    /// Mean force of the grains on each wall the engine reports, after the settling time, N
+    /// (absent: no sample in the window, or an engine without wall forces).
+    #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
+    pub wall_forces_mean_n: BTreeMap<String, [Real; 3]>,
+    /// The tube wall's mean force split along and across its axis (scenes with a tube).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub tube_wall_force_mean_n: Option<TubeWallForce>,
     /// What the numbers are worth.
     pub accuracy: Accuracy,
     /// Plug statistics at mid tube (scenes with a tube).
@@ -71,10 +84,22 @@ pub struct Summary {
     /// TARGETS.md rows the scene reproduces: measured beside paper, band and verdict.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub targets: Option<Vec<TargetRow>>,
+    /// What a reader of the numbers must know (an empty averaging window, a feed that fell
+    /// behind, grains lost): also printed at the end of the run.
+    #[serde(default)]
+    pub warnings: Vec<String>,
     /// The engine's own diagnostics (neighbour builds, inlet backlog, …): every key not
     /// named above (last, so that the named groups take theirs first when read).
     #[serde(flatten)]
     pub diagnostics: BTreeMap<String, Value>,
+}
+
+/// The grains' force on the tube wall: along the axis (+ in the flow direction: the
+/// friction by which the wall holds the grains back) and the magnitude across it, N.
+#[derive(Debug, Clone, Copy, Serialize, Deserialize)]
+pub struct TubeWallForce {
+    pub axial: Real,
+    pub cross_axis: Real,
 }
 
 /// The accuracy block.
@@ -139,7 +164,8 @@ pub struct PlugSummary {
 /// The gas's headline numbers.
 #[derive(Debug, Clone, Serialize, Deserialize)]
 pub struct GasSummary {
-    /// Mean −ΔP/L after the settling time, hPa/m.
+    /// Mean after the settling time of the gas solver's pressure drop per length
+    /// (P'(z₁)/(L − z₁), z₁ the first gas node plane), hPa/m.
     #[serde(deserialize_with = "nullable")]
     pub pressure_drop_hpa_per_m: Real,
     #[serde(deserialize_with = "nullable")]
@@ -318,7 +344,11 @@ pub fn test_summary(status: &str, wall_time_s: Real, pressure_drop: Option<Real>
         grains_fed: None,
         grains_out: None,
         grains_lost: None,
+        grains_asked: None,
+        feed_backlog_grains: None,
         threads: 1,
+        wall_forces_mean_n: BTreeMap::new(),
+        tube_wall_force_mean_n: None,
         accuracy: Accuracy {
             dem_dt_s: 1e-6,
             dem_dt_limit_s: 1e-5,
@@ -338,6 +368,7 @@ pub fn test_summary(status: &str, wall_time_s: Real, pressure_drop: Option<Real>
         }),
         profiles: None,
         targets: None,
+        warnings: Vec::new(),
         diagnostics: BTreeMap::new(),
     }
 }
@@ -362,6 +393,13 @@ mod tests {
         });
         s.profiles = Some(serde_json::json!({}));
         s.targets = Some(Vec::new());
+        s.grains_asked = Some(10);
+        s.feed_backlog_grains = Some(1);
+        s.wall_forces_mean_n = [("tube".to_string(), [0.0, 0.0, 1e-3])].into();
+        s.tube_wall_force_mean_n = Some(TubeWallForce {
+            axial: 1e-3,
+            cross_axis: 0.0,
+        });
         s
     }
 

@@ -46,6 +46,7 @@ pub fn main(a: CrosscheckArgs) -> ExitCode {
         Ok(e) => e,
         Err(code) => return code,
     };
+    plugflow::children::install_stop_handler();
     match crosscheck::crosscheck(&exe, &scene, &engines, &set, duration, &out) {
         Ok(s) => {
             let ok = s
@@ -62,9 +63,9 @@ pub fn main(a: CrosscheckArgs) -> ExitCode {
                 eprintln!("crosscheck: {d}");
             }
             if ok == s.len() && departures.is_empty() {
-                ExitCode::SUCCESS
+                stopped_or(ExitCode::SUCCESS, "engines")
             } else {
-                ExitCode::FAILURE
+                stopped_or(ExitCode::FAILURE, "engines")
             }
         }
         Err(e @ crosscheck::CrosscheckError::Scene { .. }) => {

@@ -44,6 +44,17 @@ pub fn finish(code: ExitCode) -> ExitCode {
     code
 }
 
+/// The exit code of a command whose child runs were stopped by Ctrl-C or SIGTERM: 130
+/// (as `plugflow run`), after its table of what finished was written.
+pub fn stopped_or(code: ExitCode, what: &str) -> ExitCode {
+    if plugflow::children::stop_requested() {
+        eprintln!("interrupted: the running {what} were stopped; the table holds what finished");
+        ExitCode::from(130)
+    } else {
+        code
+    }
+}
+
 pub use plugflow::scene::Scene;
 
 /// The scene with its overrides and a positive `--duration`, or exit code 2 after saying

@@ -75,13 +75,8 @@ pub fn main(a: RunArgs) -> ExitCode {
 
 /// The run's headline numbers on the terminal.
 fn print_outcome(sm: &Summary, out_dir: &std::path::Path) {
-    if sm.particles_in_tube_mean.is_nan() {
-        eprintln!(
-            "warning: no sample after the settling time ({} s; the run ended at {} s): the \
-             means (grains in the tube, pressure drop) are not measured (null in summary.json); \
-             run longer or lower output.settling_time",
-            sm.settling_time_s, sm.simulated_time_s
-        );
+    for w in &sm.warnings {
+        eprintln!("warning: {w}");
     }
     say!(
         "done: {} s simulated in {:.1} s wall; {} grains in tube (mean); outflow {:.3} kg/h; \

@@ -121,6 +121,7 @@ pub fn main(a: StudyArgs) -> ExitCode {
         Ok(e) => e,
         Err(code) => return code,
     };
+    plugflow::children::install_stop_handler();
     match study::study(&exe, &scene, &varies, &opts) {
         Ok(r) => {
             let failed = r.rows.iter().filter(|x| x.status != "completed").count();
@@ -151,9 +152,9 @@ pub fn main(a: StudyArgs) -> ExitCode {
                 _ => {}
             }
             if failed == 0 {
-                ExitCode::SUCCESS
+                stopped_or(ExitCode::SUCCESS, "variants")
             } else {
-                ExitCode::FAILURE
+                stopped_or(ExitCode::FAILURE, "variants")
             }
         }
         Err(e @ sweep::SweepError::Vary { .. }) | Err(e @ sweep::SweepError::Scene { .. }) => {

@@ -66,6 +66,7 @@ pub fn main(a: SweepArgs) -> ExitCode {
         Ok(e) => e,
         Err(code) => return code,
     };
+    plugflow::children::install_stop_handler();
     match sweep::sweep(&exe, &scene, &varies, &opts) {
         Ok(rows) => {
             let failed = rows
@@ -79,9 +80,9 @@ pub fn main(a: SweepArgs) -> ExitCode {
                 opts.out_dir.join("sweep.csv").display()
             );
             if failed == 0 {
-                ExitCode::SUCCESS
+                stopped_or(ExitCode::SUCCESS, "variants")
             } else {
-                ExitCode::FAILURE
+                stopped_or(ExitCode::FAILURE, "variants")
             }
         }
         Err(e @ sweep::SweepError::Vary { .. }) | Err(e @ sweep::SweepError::Scene { .. }) => {

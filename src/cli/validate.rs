@@ -17,6 +17,9 @@ pub struct ValidateArgs {
     pub set: Vec<String>,
 }
 
+/// Steps beyond which `validate` warns that the scene likely asks for more than was meant.
+const LIKELY_MEANT_STEPS: f64 = 1e9;
+
 pub fn main(a: ValidateArgs) -> ExitCode {
     let ValidateArgs { scene, set } = a;
     // Through the setup layer, as a run: the configuration, the coupling checks and the
@@ -52,6 +55,20 @@ pub fn main(a: ValidateArgs) -> ExitCode {
                 c.dt_report.limit_reason,
                 c.walls.len()
             );
+            let steps = s.file.duration.si / c.dt;
+            say!(
+                "steps: {steps:.3e} for {} s simulated (the shipped cases need 1e5–2e7)",
+                s.file.duration.si
+            );
+            // Refused beyond 1e10 (scene check); far past the shipped cases (the 40 s
+            // steady-state run is 2e7 steps) a step or a duration was likely mistyped.
+            if steps > LIKELY_MEANT_STEPS {
+                eprintln!(
+                    "warning: {steps:.3e} steps is far beyond what a run here usually needs \
+                     (a 40 s steady-state run of the vertical case is 2e7): days of wall time; \
+                     check duration and dem.dt / dem.dt_fraction"
+                );
+            }
             ExitCode::SUCCESS
         }
         Err(e) => {

@@ -5,7 +5,7 @@
 //! ```text
 //! /                      attrs: scene (TOML text), plugflow_version, engine, engine_version
 //! /time                  (t)       s      sample times
-//! /pressure_drop         (t)       Pa/m   −(P_out − P_in)/L           [gas scenes]
+//! /pressure_drop         (t)       Pa/m   P'(z₁)/(L − z₁), z₁ the first gas node [gas]
 //! /particles_in_tube     (t)       1
 //! /fields/z_slices       (s)       m      slice centres along the tube axis
 //! /fields/porosity       (t, s)    1      exact sphere–slab porosity per slice
@@ -19,6 +19,9 @@
 //! /profiles/{xi, porosity, granular_velocity, granular_temperature, wall_normal_stress,
 //!           drag, particle_force, ring_r_over_d, ring_porosity, layer_height_over_d,
 //!           layer_porosity_in_plugs, layer_porosity_between_plugs}   written at the end
+//! /walls/<wall>         (t, 3)    N      force of the grains on each wall the engine reports
+//! /walls/tube_axial, /walls/tube_cross_axis (t) N   the tube wall's force along / across
+//!                                         its axis                 [scenes with a tube]
 //! /particles/NNNNNN      attrs time, step; id (n), position (n,3), velocity (n,3),
 //!                        angular_velocity (n,3), radius (n)   [only when the scene asks]
 //! ```
@@ -49,6 +52,10 @@ pub struct RunMeta<'a> {
     pub z_gas: Option<Vec<Real>>,
     /// Whether particle snapshots go into this file.
     pub snapshots: bool,
+    /// The walls the engine reports forces on, in the order of [`Sample::wall_forces`].
+    pub walls: Vec<String>,
+    /// The tube's axis (unit), for the tube wall's axial and cross-axis force.
+    pub tube_axis: Option<crate::Vec3>,
 }
 
 /// Streams a run into `run.h5`.
@@ -66,6 +73,17 @@ pub struct Hdf5Output {
     plugs: Option<PlugColumns>,
     particles: Option<Group>,
     snapshots: usize,
+    /// One (t, 3) force series per wall, and the tube wall's (axial, cross-axis) split.
+    walls: Vec<Dataset>,
+    tube_split: Option<TubeSplit>,
+}
+
+/// The tube wall's force along the axis and across it, N.
+struct TubeSplit {
+    wall: usize,
+    axis: crate::Vec3,
+    axial: Dataset,
+    cross_axis: Dataset,
 }
 
 struct PlugColumns {
@@ -127,6 +145,22 @@ impl Hdf5Output {
             gas_porosity = Some(field(&fields, "gas_porosity", z.len(), "1").map_err(err)?);
             gas_pressure = Some(field(&fields, "pressure", z.len(), "Pa").map_err(err)?);
         }
+        let wall_group = file.create_group("walls").map_err(err)?;
+        let walls = meta
+            .walls
+            .iter()
+            .map(|w| field(&wall_group, &dataset_name(w), 3, "N"))
+            .collect::<Result<Vec<_>, _>>()
+            .map_err(err)?;
+        let tube_split = match (meta.tube_axis, meta.walls.iter().position(|w| w == "tube")) {
+            (Some(axis), Some(wall)) => Some(TubeSplit {
+                wall,
+                axis,
+                axial: series(&wall_group, "tube_axial", "N").map_err(err)?,
+                cross_axis: series(&wall_group, "tube_cross_axis", "N").map_err(err)?,
+            }),
+            _ => None,
+        };
         let particles = if meta.snapshots {
             Some(file.create_group("particles").map_err(err)?)
         } else {
@@ -147,6 +181,8 @@ impl Hdf5Output {
             plugs,
             particles,
             snapshots: 0,
+            walls,
+            tube_split,
         })
     }
 
@@ -174,6 +210,15 @@ impl Hdf5Output {
         }
         if let (Some(d), Some(v)) = (&self.gas_pressure, s.gas_pressure) {
             append2(d, n, v)?;
+        }
+        for (d, f) in self.walls.iter().zip(s.wall_forces) {
+            append2(d, n, f)?;
+        }
+        if let Some(t) = &self.tube_split {
+            let f = s.wall_forces.get(t.wall).copied().unwrap_or([Real::NAN; 3]);
+            let (axial, cross) = axial_split(f, t.axis);
+            append1(&t.axial, n, axial)?;
+            append1(&t.cross_axis, n, cross)?;
         }
         if let Some(p) = self.plugs.as_mut() {
             for o in s.new_plugs {
@@ -273,6 +318,23 @@ impl RunOutput for Hdf5Output {
         self.write_snapshot(time, step, particles)
             .map_err(|e| self.err(e))
     }
+}
+
+/// A force's part along a unit `axis` (signed) and the magnitude of the rest, N. On a tube
+/// wall the first is the friction the grains exert along it (Janssen's wall support), the
+/// second the net load across it (the weight of a layer resting in a horizontal pipe; ~0 in
+/// a vertical one, where the radial pushes cancel).
+pub fn axial_split(f: crate::Vec3, axis: crate::Vec3) -> (Real, Real) {
+    let a: Real = (0..3).map(|k| f[k] * axis[k]).sum();
+    let cross: Real = (0..3).map(|k| (f[k] - a * axis[k]).powi(2)).sum();
+    (a, cross.sqrt())
+}
+
+/// A wall's name as an HDF5 dataset name (`/` would open a group).
+fn dataset_name(wall: &str) -> String {
+    wall.chars()
+        .map(|c| if c == '/' || c == '.' { '_' } else { c })
+        .collect()
 }
 
 fn text_attr(g: &Group, name: &str, text: &str) -> hdf5::Result<()> {

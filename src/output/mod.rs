@@ -14,7 +14,7 @@ use plugflow_coupling::ParticleView;
 
 use crate::analysis::plugs::{PlugObservation, SliceFrame};
 use crate::analysis::profiles::ProfileResult;
-use crate::Real;
+use crate::{Real, Vec3};
 
 /// A failure to write an output file.
 #[derive(Debug, thiserror::Error)]
@@ -52,6 +52,10 @@ pub struct Sample<'a> {
     pub gas_pressure: Option<&'a [Real]>,
     /// Plugs first observed in this sample's frame.
     pub new_plugs: &'a [PlugObservation],
+    /// Force of the grains on each wall the engine reports, N, in [`RunMeta::walls`]'s order.
+    ///
+    /// [`RunMeta::walls`]: hdf5::RunMeta::walls
+    pub wall_forces: &'a [Vec3],
 }
 
 /// An output written while the run goes.

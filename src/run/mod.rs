@@ -127,6 +127,8 @@ pub fn run(scene: &Scene, opts: &RunOptions) -> Result<RunOutcome, RunError> {
             z_slices: sampling.slice_centres(),
             z_gas: gas.as_ref().map(|g| g.axial_positions()),
             snapshots: wants(SnapshotFormat::Hdf5),
+            walls: sampling.name_walls(dem.as_ref()).to_vec(),
+            tube_axis: cfg.tube.map(|t| t.axis),
         },
     )?));
     if wants(SnapshotFormat::Vtk) {

@@ -14,7 +14,7 @@ use crate::dem::DemConfig;
 use crate::output::figures::{self, Curve, Panel};
 use crate::scene::Scene;
 use crate::setup::check_row;
-use crate::summary::{Accuracy, GasAccuracy, GasSummary, PlugSummary, Summary};
+use crate::summary::{Accuracy, GasAccuracy, GasSummary, PlugSummary, Summary, TubeWallForce};
 use crate::Real;
 
 /// Everything the summary is made from.
@@ -44,6 +44,8 @@ pub fn summarize(e: &Ending) -> Summary {
         }
     }
     let flow = dem.flow();
+    let feed = feed_account(cfg, dem);
+    let wall_means = s.wall_force_means().unwrap_or_default();
     let (t_settle, m_settle) = s
         .outflow_at_settle
         .unwrap_or((dem.time(), outflow_mass(dem)));
@@ -159,7 +161,15 @@ pub fn summarize(e: &Ending) -> Summary {
         grains_fed: flow.map(|f| f.fed_count),
         grains_out: flow.map(|f| f.outflow_count),
         grains_lost: flow.map(|f| f.lost_count),
+        grains_asked: feed.map(|(asked, _)| asked),
+        feed_backlog_grains: feed.map(|(_, owed)| owed),
         threads: cfg.threads,
+        wall_forces_mean_n: wall_means.iter().cloned().collect(),
+        tube_wall_force_mean_n: cfg.tube.and_then(|t| {
+            let (_, f) = wall_means.iter().find(|(w, _)| w == "tube")?;
+            let (axial, cross_axis) = crate::output::hdf5::axial_split(*f, t.axis);
+            Some(TubeWallForce { axial, cross_axis })
+        }),
         accuracy,
         plugs,
         gas,
@@ -169,6 +179,7 @@ pub fn summarize(e: &Ending) -> Summary {
             .zip(e.profiles)
             .map(|(pr, res)| profiles_json(pr, res)),
         targets: None,
+        warnings: run_warnings(e, feed),
         diagnostics: dem
             .diagnostics()
             .into_iter()
@@ -180,6 +191,68 @@ pub fn summarize(e: &Ending) -> Summary {
         summary.targets = Some(targets::evaluate(reproduces, &summary));
     }
     summary
+}
+
+/// What the scene's inlet asked for up to now (rate × feeding time, whole grains) and what
+/// the engine still owes (asked − fed; negative: fed ahead of the rate, as a batch may): the
+/// same account for every engine with flow counters, whatever its feeder.
+fn feed_account(cfg: &DemConfig, dem: &dyn DemBackend) -> Option<(u64, i64)> {
+    let (inlet, flow) = (cfg.inlet?, dem.flow()?);
+    let feeding = dem
+        .time()
+        .min(inlet.until.unwrap_or(Real::INFINITY))
+        .max(0.0);
+    let asked = (inlet.rate * feeding).floor() as u64;
+    Some((asked, asked as i64 - flow.fed_count as i64))
+}
+
+/// The warnings a reader of the summary must see beside its numbers.
+fn run_warnings(e: &Ending, feed: Option<(u64, i64)>) -> Vec<String> {
+    let (dem, s) = (e.dem, e.sampling);
+    let mut warnings = Vec::new();
+    if s.in_tube_n == 0 {
+        warnings.push(format!(
+            "no sample after the settling time ({} s; the run ended at {} s): the means \
+             (grains in the tube, pressure drop) are not measured (null); run longer or \
+             lower output.settling_time",
+            s.settle,
+            dem.time()
+        ));
+    }
+    if let (Some((asked, owed)), Some(inlet)) = (feed, e.cfg.inlet) {
+        // Within one batch (a full inlet slab) and 1 % of the feed, the feed is what the
+        // scene asked; beyond, the numbers belong to a smaller feed than the scene's.
+        let allowed = (inlet.batch_target as f64)
+            .max(0.01 * asked as f64)
+            .max(2.0);
+        if owed as f64 > allowed {
+            warnings.push(format!(
+                "the {} engine fed {} of the {asked} grains the inlet asked for ({owed} owed, \
+                 {:.1} %): the inlet slab was blocked or the engine could not place them; the \
+                 flow is that of a smaller feed than inlet.rate says",
+                dem.engine_name(),
+                asked as i64 - owed,
+                100.0 * owed as f64 / asked.max(1) as f64
+            ));
+        }
+    }
+    if let Some(f) = dem.flow() {
+        // Grains escaping the tube (not through its outlet) are a leak in the geometry or
+        // an explosion, not transport: most of the feed lost means no conveying was measured.
+        // Every grain the run held: those still in, out through the outlet, and lost.
+        let held = dem.particles().len() as u64 + f.outflow_count + f.lost_count;
+        if f.lost_count > 0 && 2 * f.lost_count > held {
+            warnings.push(format!(
+                "the {} engine lost {} of the {held} grains the run held (not through the \
+                 outlet; {} fed): most grains escaped the tube or the domain; check the \
+                 geometry, walls and time step",
+                dem.engine_name(),
+                f.lost_count,
+                f.fed_count
+            ));
+        }
+    }
+    warnings
 }
 
 /// The profiles block of the summary.

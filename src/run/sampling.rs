@@ -10,7 +10,7 @@ use crate::analysis::taps::{PressureTap, TapTrace};
 use crate::dem::{DemConfig, LawSet};
 use crate::output::{OutputError, RunOutput, Sample};
 use crate::scene::Scene;
-use crate::Real;
+use crate::{Real, Vec3};
 
 /// The run's measurements so far.
 pub struct Sampling {
@@ -29,6 +29,10 @@ pub struct Sampling {
     /// (time, pressure drop Pa/m) per sample.
     pub dp_trace: Vec<(Real, Real)>,
     pub taps: TapTrace,
+    /// The walls the engine reports forces on (names, in its order; fixed at the first
+    /// sample) and the sums of their forces after the settling time, N.
+    pub walls: Vec<String>,
+    pub wall_force_sums: Vec<Vec3>,
 }
 
 /// What one sample saw, for the progress line.
@@ -85,7 +89,46 @@ impl Sampling {
             porosity_rows: Vec::new(),
             dp_trace: Vec::new(),
             taps,
+            walls: Vec::new(),
+            wall_force_sums: Vec::new(),
         }
+    }
+
+    /// The engine's walls, named once (before the first sample: `run.h5` lays out a series
+    /// for each).
+    pub fn name_walls(&mut self, dem: &dyn DemBackend) -> &[String] {
+        if self.walls.is_empty() {
+            self.walls = dem.wall_forces().into_iter().map(|w| w.wall).collect();
+            self.wall_force_sums = vec![[0.0; 3]; self.walls.len()];
+        }
+        &self.walls
+    }
+
+    /// The force on each named wall now, N (zero for a wall the engine stopped reporting:
+    /// an engine that reports none after a failed read reports no force, not another wall's).
+    fn wall_forces(&mut self, dem: &dyn DemBackend) -> Vec<Vec3> {
+        self.name_walls(dem);
+        let now = dem.wall_forces();
+        self.walls
+            .iter()
+            .map(|name| {
+                now.iter()
+                    .find(|w| &w.wall == name)
+                    .map_or([0.0; 3], |w| w.force)
+            })
+            .collect()
+    }
+
+    /// Mean force on each wall after the settling time, N (None before a sample in it).
+    pub fn wall_force_means(&self) -> Option<Vec<(String, Vec3)>> {
+        (self.in_tube_n > 0).then(|| {
+            let n = self.in_tube_n as Real;
+            self.walls
+                .iter()
+                .zip(&self.wall_force_sums)
+                .map(|(w, s)| (w.clone(), s.map(|c| c / n)))
+                .collect()
+        })
     }
 
     /// Slice centres along the tube, m (None without a tube).
@@ -108,6 +151,7 @@ impl Sampling {
     ) -> Result<Seen, OutputError> {
         let time = dem.time();
         let in_tube = particles_in_tube(cfg, &dem.particles());
+        let wall_forces = self.wall_forces(dem);
         let dp = gas.map(|g| g.pressure_drop());
         let gas_porosity = gas.map(|g| g.porosity_profile());
         let gas_pressure = gas.map(|g| g.pressure_profile());
@@ -131,6 +175,11 @@ impl Sampling {
             self.in_tube_sum += in_tube as Real;
             self.dp_sum += dp.unwrap_or(0.0);
             self.in_tube_n += 1;
+            for (sum, f) in self.wall_force_sums.iter_mut().zip(&wall_forces) {
+                for k in 0..3 {
+                    sum[k] += f[k];
+                }
+            }
             if let (Some(tr), Some(fr)) = (self.tracker.as_mut(), &frame) {
                 tr.push(fr);
             }
@@ -175,6 +224,7 @@ impl Sampling {
                 .tracker
                 .as_ref()
                 .map_or(&[][..], |t| &t.observations[plugs_before..]),
+            wall_forces: &wall_forces,
         };
         for o in outputs.iter_mut() {
             o.sample(&sample)?;

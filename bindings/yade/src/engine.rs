@@ -50,6 +50,51 @@ fn py_err(e: PyErr) -> String {
     })
 }
 
+/// Start the embedded interpreter as Debian's `/usr/bin/python3`, whatever the user's PATH
+/// and environment. Left to itself an embedded CPython takes its prefix from the first
+/// `python3` on PATH: a venv or pyenv there gives it a library without YADE's dependencies
+/// ("No module named 'future'", issue 26). Isolated: PYTHONPATH, PYTHONHOME and the user's
+/// site-packages are ignored too; Debian's dist-packages still come from `site`.
+fn start_debian_python() -> Result<(), String> {
+    use pyo3::ffi;
+    // SAFETY: the documented PyConfig sequence (init, set, initialize, clear) on a config
+    // owned here, once, before any other use of Python in this process; the GIL is then
+    // released as pyo3's own initialisation does, for `Python::attach` to take it.
+    unsafe {
+        if ffi::Py_IsInitialized() != 0 {
+            return Ok(());
+        }
+        let mut config = std::mem::MaybeUninit::<ffi::PyConfig>::uninit();
+        let cfg = config.as_mut_ptr();
+        ffi::PyConfig_InitIsolatedConfig(cfg);
+        let named = ffi::PyConfig_SetBytesString(
+            cfg,
+            &raw mut (*cfg).program_name,
+            c"/usr/bin/python3".as_ptr(),
+        );
+        let status = if ffi::PyStatus_Exception(named) != 0 {
+            named
+        } else {
+            ffi::Py_InitializeFromConfig(cfg)
+        };
+        ffi::PyConfig_Clear(cfg);
+        if ffi::PyStatus_Exception(status) != 0 {
+            let why = if status.err_msg.is_null() {
+                "unknown".to_string()
+            } else {
+                std::ffi::CStr::from_ptr(status.err_msg)
+                    .to_string_lossy()
+                    .into_owned()
+            };
+            return Err(format!(
+                "could not start Debian's Python 3.11 for YADE: {why}"
+            ));
+        }
+        ffi::PyEval_SaveThread();
+    }
+    Ok(())
+}
+
 /// Start Python, import YADE and load driver.py (first call only).
 fn driver(threads: usize) -> Result<&'static (Py<PyModule>, String), String> {
     DRIVER
@@ -60,6 +105,7 @@ fn driver(threads: usize) -> Result<&'static (Py<PyModule>, String), String> {
                      scripts/setup-system.sh` (apt-get install yade python3-yade)"
                 ));
             }
+            start_debian_python()?;
             // Loaded by a local dlopen (libloading), libpython's symbols are not global and
             // YADE's extension modules would fail with undefined Python symbols: promote
             // the copy already mapped (this library links it) to global.
