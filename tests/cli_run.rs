@@ -817,3 +817,70 @@ fn wall_forces_carry_the_weight_of_a_bed_at_rest() {
     assert_eq!(along.len(), time.len());
     std::fs::remove_dir_all(&out).ok();
 }
+
+/// Out of room (here the file-size limit, `ulimit -f`, which needs no root; a full disk is
+/// checked the same way with statvfs): the run stops with a message naming the file and why,
+/// exit 1, the summary written with status `failed: …` and `run.h5` readable, ending where
+/// the summary says (issue 26: a full disk segfaulted in H5D_close and left an unreadable
+/// file).
+#[test]
+fn out_of_room_the_run_stops_with_run_h5_readable() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let out = std::env::temp_dir().join(format!("plugflow-room-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&out);
+    let case = root.join("cases/vertical_plug.toml");
+    // 1.5 MiB: run.h5 reaches ~0.4 MB in ~0.5 s simulated, then the 1 MiB reserve and the
+    // next chunk no longer fit. SIGXFSZ ignored (inherited across exec): a write beyond the
+    // limit fails with EFBIG, as a write to a full disk fails with ENOSPC.
+    let script = format!(
+        "trap '' XFSZ; ulimit -f 1536; exec '{}' run '{}' --out '{}' --duration 5 --quiet \
+         --set 'output.settling_time=\"0.2 s\"'",
+        env!("CARGO_BIN_EXE_plugflow"),
+        case.display(),
+        out.display()
+    );
+    let o = std::process::Command::new("bash")
+        .args(["-c", &script])
+        .output()
+        .unwrap();
+    let text = String::from_utf8_lossy(&o.stderr).to_string();
+    assert_eq!(o.status.code(), Some(1), "{text}");
+    assert!(text.contains("file-size limit"), "{text}");
+    let s = common::read_summary(&out);
+    let status = s["status"].as_str().unwrap();
+    assert!(status.starts_with("failed: cannot write"), "{status}");
+    let t = s["simulated_time_s"].as_f64().unwrap();
+    assert!(t > 0.1 && t < 5.0, "{s}");
+    let f = hdf5::File::open(out.join("run.h5")).unwrap();
+    let time: Vec<f64> = f.dataset("time").unwrap().read_raw().unwrap();
+    assert!(
+        (time.last().unwrap() - t).abs() < 1e-9,
+        "{:?} vs {t}",
+        time.last()
+    );
+    let _ = std::fs::remove_dir_all(&out);
+}
+
+/// `validate` prints the steps a scene needs and warns far beyond what the shipped cases
+/// need (here 3000 s at the vertical case's 2 µs: 1.5e9 steps), still exit 0: it may be meant.
+#[test]
+fn validate_prints_the_steps_and_warns_far_beyond_reason() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let case = root.join("cases/vertical_plug.toml");
+    let (code, text) = common::plugflow(&["validate", case.to_str().unwrap()]);
+    assert_eq!(code, 0, "{text}");
+    assert!(text.contains("steps: 6.000e6 for 12 s simulated"), "{text}");
+    assert!(!text.contains("warning"), "{text}");
+    let (code, text) = common::plugflow(&[
+        "validate",
+        case.to_str().unwrap(),
+        "--set",
+        "duration=\"3000 s\"",
+    ]);
+    assert_eq!(code, 0, "{text}");
+    assert!(text.contains("steps: 1.500e9"), "{text}");
+    assert!(
+        text.contains("warning: 1.500e9 steps is far beyond"),
+        "{text}"
+    );
+}

@@ -61,7 +61,6 @@ pub struct RunMeta<'a> {
 /// Streams a run into `run.h5`.
 pub struct Hdf5Output {
     path: String,
-    file: File,
     rows: usize,
     time: Dataset,
     pressure_drop: Option<Dataset>,
@@ -76,6 +75,10 @@ pub struct Hdf5Output {
     /// One (t, 3) force series per wall, and the tube wall's (axial, cross-axis) split.
     walls: Vec<Dataset>,
     tube_split: Option<TubeSplit>,
+    /// Declared last, so dropped last: the datasets and groups are closed before the file.
+    /// The other way round, a file whose close failed (a full disk) leaves its datasets
+    /// half closed, and closing them then crashes inside HDF5 (H5D_close, issue 26).
+    file: File,
 }
 
 /// The tube wall's force along the axis and across it, N.

@@ -8,6 +8,7 @@
 
 pub mod figures;
 pub mod hdf5;
+pub mod room;
 pub mod vtk;
 
 use plugflow_coupling::ParticleView;

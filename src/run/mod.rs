@@ -82,6 +82,8 @@ pub fn run(scene: &Scene, opts: &RunOptions) -> Result<RunOutcome, RunError> {
         source,
     })?;
     clear_previous_outputs(&out_dir)?;
+    // A disk too full for the run's end is said before the run starts.
+    crate::output::room::RoomGuard::new(&out_dir.join("run.h5")).check()?;
     let Setup {
         config: cfg,
         engine: mut dem,
@@ -139,7 +141,13 @@ pub fn run(scene: &Scene, opts: &RunOptions) -> Result<RunOutcome, RunError> {
     let mut samples_taken = 0u64;
     let mut done = 0u64;
     let mut failure = None;
+    let mut room = crate::output::room::RoomGuard::new(&out_dir.join("run.h5"));
     while done < total_steps {
+        // Before the steps of the next sample: a run stopped for room ends where run.h5 does.
+        if let Err(e) = room.check() {
+            failure = Some(RunError::Output(e));
+            break;
+        }
         let n = per_sample.min(total_steps - done);
         // The step: the coupled one with gas, the DEM's alone without. With gas in pieces of
         // whole coupling intervals (the same steps as one call), so that Ctrl-C or SIGTERM is
@@ -209,6 +217,35 @@ pub fn run(scene: &Scene, opts: &RunOptions) -> Result<RunOutcome, RunError> {
         b.finish_and_clear();
     }
     let profiles = sampling.profiles.as_ref().map(|p| p.result());
+    // The end: figures, the profiles into run.h5, then the summary, each attempted whatever
+    // failed before (a full disk: whatever still fits is written), the summary last so that
+    // its status names the first failure.
+    let mut end_errors: Vec<RunError> = Vec::new();
+    if let Err(e) = write_figures(
+        &out_dir,
+        &cfg,
+        dem.as_ref(),
+        gas.as_ref(),
+        &sampling,
+        profiles.as_ref(),
+    ) {
+        end_errors.push(e);
+    }
+    if let Some(res) = &profiles {
+        for o in outputs.iter_mut() {
+            if let Err(e) = o.finish(Some(res)) {
+                end_errors.push(RunError::Output(e));
+            }
+        }
+    }
+    // Close run.h5 now: what it holds is on disk before the summary says so.
+    drop(outputs);
+    let failure = failure.or_else(|| {
+        let mut errors = std::mem::take(&mut end_errors).into_iter();
+        let first = errors.next();
+        end_errors = errors.collect();
+        first
+    });
     let summary = summarize(&Ending {
         scene,
         cfg: &cfg,
@@ -223,23 +260,22 @@ pub fn run(scene: &Scene, opts: &RunOptions) -> Result<RunOutcome, RunError> {
         },
         wall_time: wall.elapsed().as_secs_f64(),
     });
-    write_figures(
-        &out_dir,
-        &cfg,
-        dem.as_ref(),
-        gas.as_ref(),
-        &sampling,
-        profiles.as_ref(),
-    )?;
-    if let Some(res) = &profiles {
-        for o in outputs.iter_mut() {
-            o.finish(Some(res))?;
-        }
+    if let Err(e) = write_summary(&out_dir.join("summary.json"), &summary) {
+        end_errors.push(e);
     }
-    write_summary(&out_dir.join("summary.json"), &summary)?;
     match failure {
-        Some(e) => Err(e),
-        None => Ok(RunOutcome { summary, out_dir }),
+        Some(e) => {
+            // The first failure is the run's error; the later ones (the same full disk,
+            // most likely) are said here.
+            for later in &end_errors {
+                eprintln!("error (after the first): {later}");
+            }
+            Err(e)
+        }
+        None => match end_errors.into_iter().next() {
+            Some(e) => Err(e),
+            None => Ok(RunOutcome { summary, out_dir }),
+        },
     }
 }
 
