@@ -6,7 +6,8 @@
 #   (none)  also what the tests and the benchmark need: LIGGGHTS with its headers and
 #           OpenMPI (reference engine), YADE with Python 3.11's headers (the YADE shim embeds
 #           Debian's Python to drive it; ~770 MB), procps (pgrep/kill in the isolation
-#           test), and h5py (reads run.h5 back from Python).
+#           test), h5py (reads run.h5 back from Python) and Python's vtk (reads the ParaView
+#           files back).
 set -euo pipefail
 pkgs=(libhdf5-dev pkg-config)
 if [ "${1:-}" != "--base" ]; then
@@ -24,4 +25,6 @@ if [ ${#missing[@]} -gt 0 ]; then
 fi
 if [ "${1:-}" != "--base" ]; then
   python3 -c "import h5py" 2>/dev/null || python3 -m pip install -q --root-user-action=ignore h5py
+  # VTK's own readers, to read the ParaView files back in the outputs test (~140 MB wheel).
+  python3 -c "import vtk" 2>/dev/null || python3 -m pip install -q --root-user-action=ignore vtk
 fi

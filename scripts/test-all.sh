@@ -5,6 +5,8 @@ cd "$(dirname "$0")/.."
 bash scripts/setup-system.sh
 # The outputs test must read run.h5 from Python too (h5py installed above).
 export PLUGFLOW_REQUIRE_H5PY=1
+# and the ParaView files with VTK's readers (Python's vtk, installed above).
+export PLUGFLOW_REQUIRE_PYTHON_VTK=1
 # The external engines' shims (GPL crates) build only with their features.
 features="plugflow-dem-liggghts/liggghts,plugflow-dem-yade/yade"
 cargo fmt --all -- --check

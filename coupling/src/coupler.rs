@@ -347,6 +347,11 @@ impl Coupler {
         self.gas.pressure_drop_per_length()
     }
 
+    /// The granular fields of the last exchange (porosity, velocity on the nodes).
+    pub fn granular_fields(&self) -> &GranularFields {
+        &self.fields
+    }
+
     /// Deposited porosity along the axis (cross-section mean by accessible volume).
     pub fn porosity_profile(&self) -> Vec<Real> {
         self.section_means(&self.fields.porosity, 1.0)

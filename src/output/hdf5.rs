@@ -317,6 +317,7 @@ impl RunOutput for Hdf5Output {
         time: Real,
         step: u64,
         particles: &ParticleView,
+        _gas: Option<&super::GasSnapshot>,
     ) -> Result<(), OutputError> {
         self.write_snapshot(time, step, particles)
             .map_err(|e| self.err(e))

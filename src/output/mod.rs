@@ -1,6 +1,6 @@
 //! What a run writes while it goes. Each format is one file here behind [`RunOutput`]:
 //! [`hdf5::Hdf5Output`] (`run.h5`: field time series, pressure-drop trace, plug table,
-//! snapshots), [`vtk::VtkOutput`] (ParaView particle files). Figures and `summary.json`
+//! snapshots), [`vtk::VtkOutput`] (ParaView: VTK XML particles, gas grid, geometry, series). Figures and `summary.json`
 //! are written once at the end (`figures.rs`, `run.rs`).
 //!
 //! Every sample is handed to every output as soon as it is taken, and each output makes it
@@ -59,16 +59,32 @@ pub struct Sample<'a> {
     pub wall_forces: &'a [Vec3],
 }
 
+/// The gas on its grid at a snapshot (gas scenes).
+#[derive(Debug, Clone)]
+pub struct GasSnapshot<'a> {
+    pub grid: &'a plugflow_coupling::TubeGrid,
+    /// P − P0 on the nodes, Pa.
+    pub pressure: &'a [Real],
+    /// Porosity on the nodes as the gas used it (clamped).
+    pub porosity: &'a [Real],
+    /// Deposited granular velocity on the nodes, m/s.
+    pub granular_velocity: &'a [Vec3],
+    /// Interstitial gas velocity on the nodes, m/s (None: the d'Arcy gas has none).
+    pub gas_velocity: Option<Vec<Vec3>>,
+}
+
 /// An output written while the run goes.
 pub trait RunOutput {
     /// Record one sample; durable on return.
     fn sample(&mut self, sample: &Sample) -> Result<(), OutputError>;
-    /// Record one particle snapshot; durable on return.
+    /// Record one snapshot of the grains (and the gas on its grid, in gas scenes); durable
+    /// on return.
     fn snapshot(
         &mut self,
         time: Real,
         step: u64,
         particles: &ParticleView,
+        gas: Option<&GasSnapshot>,
     ) -> Result<(), OutputError>;
     /// The run is over: record what is only known at the end (profiles).
     fn finish(&mut self, _profiles: Option<&ProfileResult>) -> Result<(), OutputError> {

@@ -12,6 +12,7 @@ use std::time::Instant;
 
 use plugflow_coupling::{StepError, Verdict};
 
+use crate::dem::walls::WallShape;
 use crate::output::hdf5::{Hdf5Output, RunMeta};
 use crate::output::vtk::VtkOutput;
 use crate::output::RunOutput;
@@ -19,7 +20,7 @@ use crate::scene::schema::SnapshotFormat;
 use crate::scene::{Scene, SceneError};
 use crate::setup::{self, Setup};
 use crate::summary::Summary;
-use crate::Real;
+use crate::{Real, Vec3};
 use report::{summarize, write_figures, Ending};
 use sampling::Sampling;
 
@@ -134,7 +135,25 @@ pub fn run(scene: &Scene, opts: &RunOptions) -> Result<RunOutcome, RunError> {
         },
     )?));
     if wants(SnapshotFormat::Vtk) {
-        outputs.push(Box::new(VtkOutput::new(&out_dir)));
+        let tube = cfg.tube.map(|t| (t.origin, t.axis, t.radius, t.length));
+        let planes: Vec<(Vec3, Vec3)> = cfg
+            .walls
+            .iter()
+            .filter_map(|w| match w.shape {
+                WallShape::Plane { point, normal } => Some((point, normal)),
+                WallShape::Cylinder { .. } => None,
+            })
+            .collect();
+        // Planes drawn as squares the size of the tube's diameter or of the box.
+        let size = cfg.tube.map_or_else(
+            || {
+                (0..3)
+                    .map(|k| cfg.box_hi[k] - cfg.box_lo[k])
+                    .fold(0.0, Real::max)
+            },
+            |t| 2.0 * t.radius,
+        );
+        outputs.push(Box::new(VtkOutput::new(&out_dir, tube, &planes, size)?));
     }
     let samples_per_snapshot =
         snapshot_spec.map(|s| ((s.interval.si / (per_sample as Real * dt)).round() as u64).max(1));
@@ -301,8 +320,12 @@ fn write_summary(path: &Path, s: &Summary) -> Result<(), RunError> {
 /// intervals): ~0.1 s of wall time for 10 000 grains on one core.
 const STEPS_PER_PIECE: u64 = 500;
 
-/// The files a run writes into its folder (besides `particles_NNNNNN.vtk`).
-const RUN_OUTPUTS: [&str; 9] = [
+/// The files a run writes into its folder (besides the numbered snapshots, see
+/// [`clear_previous_outputs`]).
+const RUN_OUTPUTS: [&str; 12] = [
+    "particles.pvd",
+    "gas.pvd",
+    "geometry.vtp",
     "summary.json",
     "run.h5",
     "plug_statistics.png",
@@ -325,7 +348,10 @@ fn clear_previous_outputs(dir: &Path) -> Result<(), RunError> {
     for entry in entries.flatten() {
         let name = entry.file_name();
         let name = name.to_string_lossy();
-        let snapshot = name.starts_with("particles_") && name.ends_with(".vtk");
+        // Numbered snapshots: this version's and the legacy `.vtk` of earlier ones.
+        let snapshot = (name.starts_with("particles_")
+            && [".vtk", ".vtp"].iter().any(|e| name.ends_with(e)))
+            || (name.starts_with("gas_") && name.ends_with(".vts"));
         if snapshot || RUN_OUTPUTS.contains(&name.as_ref()) {
             std::fs::remove_file(entry.path()).map_err(|source| RunError::Io {
                 path: entry.path().display().to_string(),

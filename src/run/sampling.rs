@@ -8,7 +8,7 @@ use crate::analysis::plugs::{PlugTracker, Slicer};
 use crate::analysis::profiles::{PlugWindow, Profiles, TubeFrame, WallSpring};
 use crate::analysis::taps::{PressureTap, TapTrace};
 use crate::dem::{DemConfig, LawSet};
-use crate::output::{OutputError, RunOutput, Sample};
+use crate::output::{GasSnapshot, OutputError, RunOutput, Sample};
 use crate::scene::Scene;
 use crate::{Real, Vec3};
 
@@ -226,10 +226,22 @@ impl Sampling {
                 .map_or(&[][..], |t| &t.observations[plugs_before..]),
             wall_forces: &wall_forces,
         };
+        let gas_snapshot = gas.filter(|_| snapshot_due).map(|g| GasSnapshot {
+            grid: g.gas.grid(),
+            pressure: g.gas.pressure(),
+            porosity: g.gas.porosity(),
+            granular_velocity: &g.granular_fields().velocity,
+            gas_velocity: g.gas.gas_velocity(),
+        });
         for o in outputs.iter_mut() {
             o.sample(&sample)?;
             if snapshot_due {
-                o.snapshot(time, dem.step_count(), &dem.particles())?;
+                o.snapshot(
+                    time,
+                    dem.step_count(),
+                    &dem.particles(),
+                    gas_snapshot.as_ref(),
+                )?;
             }
         }
         Ok(Seen {

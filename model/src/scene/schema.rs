@@ -483,8 +483,9 @@ impl Default for OutputSpec {
 pub struct SnapshotSpec {
     /// Interval between snapshots, s (rounded up to whole sample intervals).
     pub interval: Q<Time>,
-    /// Where: `"hdf5"` (group `/particles` of run.h5) and/or `"vtk"` (legacy VTK polydata
-    /// files `particles_NNNNNN.vtk`, a time series ParaView opens as one).
+    /// Where: `"hdf5"` (group `/particles` of run.h5) and/or `"vtk"` (ParaView's VTK XML:
+    /// `particles_NNNNNN.vtp`, `gas_NNNNNN.vts`, the series `particles.pvd` and `gas.pvd`
+    /// with the simulated times, `geometry.vtp`).
     pub formats: Vec<SnapshotFormat>,
 }
 
