@@ -70,8 +70,9 @@ pub struct Liggghts {
     pub flow: PfDemFlow,
     /// Grains created through pf_dem_insert (not counted as fed).
     inserted: std::collections::HashSet<u64>,
-    /// Every grain id seen so far.
-    seen: std::collections::HashSet<u64>,
+    /// Every grain id seen so far, one bit per id (LIGGGHTS's tags are small integers
+    /// counting up from 1): a look per grain and exchange costs a shift, not a hash.
+    seen: Vec<u64>,
     /// Local snapshot refreshed after every change.
     pub ids: Vec<u64>,
     pub x: Vec<[f64; 3]>,
@@ -149,7 +150,7 @@ impl Liggghts {
             workdir,
             flow: PfDemFlow::default(),
             inserted: Default::default(),
-            seen: Default::default(),
+            seen: Vec::new(),
             ids: Vec::new(),
             x: Vec::new(),
             v: Vec::new(),
@@ -231,8 +232,19 @@ impl Liggghts {
         Ok(out as *mut *mut f64)
     }
 
-    /// Re-read every local atom.
-    pub fn refresh(&mut self) -> Result<(), EngineError> {
+    /// Mark `id` seen; whether it was new.
+    fn first_sight(&mut self, id: u64) -> bool {
+        let (word, bit) = ((id / 64) as usize, 1u64 << (id % 64));
+        if word >= self.seen.len() {
+            self.seen.resize(word + 1, 0);
+        }
+        let new = self.seen[word] & bit == 0;
+        self.seen[word] |= bit;
+        new
+    }
+
+    /// Re-read every local atom; returns how many were seen for the first time.
+    pub fn refresh(&mut self) -> Result<usize, EngineError> {
         let n = self.nlocal()?;
         if n == 0 {
             // LIGGGHTS allocates its per-atom arrays with the first atom.
@@ -242,7 +254,7 @@ impl Liggghts {
             self.omega.clear();
             self.radius.clear();
             self.mass.clear();
-            return Ok(());
+            return Ok(0);
         }
         let tag = self.atom_ptr("id")? as *const c_int;
         let x = self.atom_ptr("x")? as *const *const f64;
@@ -256,21 +268,33 @@ impl Liggghts {
                 let q = *p.add(i);
                 [*q, *q.add(1), *q.add(2)]
             };
-            self.ids = (0..n).map(|i| *tag.add(i) as u64).collect();
-            self.x = (0..n).map(|i| row(x, i)).collect();
-            self.v = (0..n).map(|i| row(v, i)).collect();
-            self.omega = (0..n).map(|i| row(w, i)).collect();
-            self.radius = (0..n).map(|i| *r.add(i)).collect();
-            self.mass = (0..n).map(|i| *m.add(i)).collect();
+            // Into the buffers of the last read (no allocation once they are large enough).
+            self.ids.clear();
+            self.ids.extend((0..n).map(|i| *tag.add(i) as u64));
+            self.x.clear();
+            self.x.extend((0..n).map(|i| row(x, i)));
+            self.v.clear();
+            self.v.extend((0..n).map(|i| row(v, i)));
+            self.omega.clear();
+            self.omega.extend((0..n).map(|i| row(w, i)));
+            self.radius.clear();
+            self.radius.extend((0..n).map(|i| *r.add(i)));
+            self.mass.clear();
+            self.mass.extend((0..n).map(|i| *m.add(i)));
         }
-        for id in &self.ids {
-            if self.seen.insert(*id) && !self.inserted.contains(id) {
-                self.flow.fed_count += 1;
+        let mut new = 0;
+        for k in 0..self.ids.len() {
+            let id = self.ids[k];
+            if self.first_sight(id) {
+                new += 1;
+                if !self.inserted.contains(&id) {
+                    self.flow.fed_count += 1;
+                }
             }
         }
         let fed = self.flow.fed_count;
         self.flow.fed_mass = fed as f64 * self.mapped.grain_mass;
-        Ok(())
+        Ok(new)
     }
 
     /// Advance `steps` steps.
@@ -284,7 +308,7 @@ impl Liggghts {
             self.time = self.steps as f64 * self.cfg.dt;
             return Ok(());
         }
-        let before = self.ids.clone();
+        let before = self.ids.len();
         let cmd = if self.needs_setup {
             format!("run {steps}")
         } else {
@@ -294,10 +318,10 @@ impl Liggghts {
         self.needs_setup = false;
         self.steps += steps;
         self.time = self.steps as f64 * self.cfg.dt;
-        self.refresh()?;
-        // Atoms LIGGGHTS dropped at the box edge within the run.
-        let now: std::collections::HashSet<u64> = self.ids.iter().copied().collect();
-        self.flow.lost_count += before.iter().filter(|id| !now.contains(id)).count() as u64;
+        let new = self.refresh()?;
+        // Atoms LIGGGHTS dropped at the box edge within the run: nothing else removes atoms
+        // during a run, and every atom it inserted is new.
+        self.flow.lost_count += (before + new).saturating_sub(self.ids.len()) as u64;
         if let Some(i) = self
             .x
             .iter()
