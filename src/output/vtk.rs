@@ -272,6 +272,30 @@ impl VtkOutput {
         })
     }
 
+    /// The output of a scene: its tube and plane walls (drawn as squares the size of the
+    /// tube's diameter, or of the box without a tube) into `geometry.vtp`.
+    pub fn for_scene(dir: &Path, cfg: &crate::dem::DemConfig) -> Result<Self, OutputError> {
+        use crate::dem::walls::WallShape;
+        let tube = cfg.tube.map(|t| (t.origin, t.axis, t.radius, t.length));
+        let planes: Vec<(Vec3, Vec3)> = cfg
+            .walls
+            .iter()
+            .filter_map(|w| match w.shape {
+                WallShape::Plane { point, normal } => Some((point, normal)),
+                WallShape::Cylinder { .. } => None,
+            })
+            .collect();
+        let size = cfg.tube.map_or_else(
+            || {
+                (0..3)
+                    .map(|k| cfg.box_hi[k] - cfg.box_lo[k])
+                    .fold(0.0, Real::max)
+            },
+            |t| 2.0 * t.radius,
+        );
+        Self::new(dir, tube, &planes, size)
+    }
+
     /// Snapshots written so far.
     pub fn written(&self) -> usize {
         self.written

@@ -12,7 +12,6 @@ use std::time::Instant;
 
 use plugflow_coupling::{StepError, Verdict};
 
-use crate::dem::walls::WallShape;
 use crate::output::hdf5::{Hdf5Output, RunMeta};
 use crate::output::vtk::VtkOutput;
 use crate::output::RunOutput;
@@ -20,7 +19,7 @@ use crate::scene::schema::SnapshotFormat;
 use crate::scene::{Scene, SceneError};
 use crate::setup::{self, Setup};
 use crate::summary::Summary;
-use crate::{Real, Vec3};
+use crate::Real;
 use report::{summarize, write_figures, Ending};
 use sampling::Sampling;
 
@@ -135,25 +134,7 @@ pub fn run(scene: &Scene, opts: &RunOptions) -> Result<RunOutcome, RunError> {
         },
     )?));
     if wants(SnapshotFormat::Vtk) {
-        let tube = cfg.tube.map(|t| (t.origin, t.axis, t.radius, t.length));
-        let planes: Vec<(Vec3, Vec3)> = cfg
-            .walls
-            .iter()
-            .filter_map(|w| match w.shape {
-                WallShape::Plane { point, normal } => Some((point, normal)),
-                WallShape::Cylinder { .. } => None,
-            })
-            .collect();
-        // Planes drawn as squares the size of the tube's diameter or of the box.
-        let size = cfg.tube.map_or_else(
-            || {
-                (0..3)
-                    .map(|k| cfg.box_hi[k] - cfg.box_lo[k])
-                    .fold(0.0, Real::max)
-            },
-            |t| 2.0 * t.radius,
-        );
-        outputs.push(Box::new(VtkOutput::new(&out_dir, tube, &planes, size)?));
+        outputs.push(Box::new(VtkOutput::for_scene(&out_dir, &cfg)?));
     }
     let samples_per_snapshot =
         snapshot_spec.map(|s| ((s.interval.si / (per_sample as Real * dt)).round() as u64).max(1));
