@@ -1,17 +1,23 @@
 #!/usr/bin/env bash
 # Installs the system packages plugflow needs (as root or through sudo, idempotent; packages
-# already present are left alone).
-#   --base  only what building and running plugflow needs: the HDF5 C library (run.h5)
-#           and pkg-config, which finds it.
+# already present are left alone), all from Debian 12's archive, and checks the Rust
+# toolchain (which Debian's archive does not carry recent enough: see README).
+#   --base  only what building and running plugflow needs: a C/C++ compiler and make
+#           (build-essential: the HDF5 and Python bindings build C), the HDF5 C library
+#           (run.h5) and pkg-config, which finds it.
 #   (none)  also what the tests and the benchmark need: LIGGGHTS with its headers and
 #           OpenMPI (reference engine), YADE with Python 3.11's headers (the YADE shim embeds
 #           Debian's Python to drive it; ~770 MB), procps (pgrep/kill in the isolation
-#           test), h5py (reads run.h5 back from Python) and Python's vtk (reads the ParaView
-#           files back).
+#           test), and for Debian's own /usr/bin/python3 h5py (reads run.h5 back) and VTK's
+#           Python readers (read the ParaView files back). Debian's packages, not pip: a plain
+#           Debian 12 refuses pip into the system Python (PEP 668).
 set -euo pipefail
-pkgs=(libhdf5-dev pkg-config)
+# The oldest Rust that builds plugflow: Cargo.toml's rust-version (its dependencies need it).
+need_rust=$(sed -n 's/^rust-version = "\(.*\)"/\1/p' "$(dirname "$0")/../Cargo.toml")
+pkgs=(build-essential libhdf5-dev pkg-config)
 if [ "${1:-}" != "--base" ]; then
-  pkgs+=(liggghts libliggghts-dev libopenmpi-dev yade python3-yade libpython3.11-dev procps)
+  pkgs+=(liggghts libliggghts-dev libopenmpi-dev yade python3-yade libpython3.11-dev procps
+    python3-h5py python3-vtk9)
 fi
 missing=()
 for p in "${pkgs[@]}"; do
@@ -23,8 +29,16 @@ if [ ${#missing[@]} -gt 0 ]; then
   $SUDO apt-get update -qq
   DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq "${missing[@]}"
 fi
-if [ "${1:-}" != "--base" ]; then
-  python3 -c "import h5py" 2>/dev/null || python3 -m pip install -q --root-user-action=ignore h5py
-  # VTK's own readers, to read the ParaView files back in the outputs test (~140 MB wheel).
-  python3 -c "import vtk" 2>/dev/null || python3 -m pip install -q --root-user-action=ignore vtk
+# The toolchain: say what to do rather than fail deep inside a dependency's build.
+if ! command -v cargo > /dev/null || ! command -v rustc > /dev/null; then
+  echo "setup: no Rust toolchain (cargo, rustc) on PATH; plugflow needs Rust >= $need_rust." >&2
+  echo "setup: install one with rustup (https://rustup.rs), then open a new shell." >&2
+  exit 1
+fi
+have_rust=$(rustc --version | awk '{print $2}')
+if [ "$(printf '%s\n%s\n' "$need_rust" "$have_rust" | sort -V | head -1)" != "$need_rust" ]; then
+  echo "setup: rustc $have_rust is older than plugflow's minimum $need_rust." >&2
+  echo "setup: update it with \`rustup update stable\` (or install rustup: https://rustup.rs;" >&2
+  echo "setup: Debian's own rustc package is too old)." >&2
+  exit 1
 fi

@@ -14,7 +14,6 @@ pub mod children;
 pub mod crosscheck;
 pub mod gas;
 pub mod output;
-pub mod png;
 pub mod run;
 pub mod setup;
 pub mod study;

@@ -111,7 +111,50 @@ fn blow_up_stops_with_step_and_grain_and_keeps_the_summary() {
     );
     let s = std::fs::read_to_string(out.join("summary.json")).unwrap();
     assert!(s.contains("failed: run stopped"), "{s}");
+    // The log keeps how the run ended, for a batch job nobody watched.
+    let log = std::fs::read_to_string(out.join("log.plugflow")).unwrap();
+    assert!(log.contains("failed: run stopped"), "{log}");
     std::fs::remove_dir_all(&dir).ok();
+}
+
+/// A run whose stderr is not a terminal (here a pipe, as in a batch job) prints plain
+/// progress lines instead of a bar, and `log.plugflow` keeps the checks, the progress and
+/// the ending.
+#[test]
+fn a_batch_run_prints_plain_progress_and_keeps_a_log() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let out = std::env::temp_dir().join(format!("plugflow-batch-{}", std::process::id()));
+    let case = root.join("cases/vertical_plug.toml");
+    let (code, text) = plugflow(&[
+        "run",
+        case.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+        "--duration",
+        "0.2",
+        "--set",
+        "output.settling_time=0.1 s",
+    ]);
+    assert_eq!(code, 0, "{text}");
+    // The first sample's line and the last (the run is shorter than the 5 s between lines).
+    assert!(text.contains("t = 0.0100/0.2 s (5 %)"), "{text}");
+    assert!(text.contains("t = 0.2000/0.2 s (100 %)"), "{text}");
+    assert!(text.contains("s simulated per wall second, ETA"), "{text}");
+    assert!(text.contains("grains in tube, Δp"), "{text}");
+    // No progress bar's redraws (indicatif's carriage returns and cursor codes).
+    assert!(!text.contains('\r') && !text.contains('\u{1b}'), "{text:?}");
+    let log = std::fs::read_to_string(out.join("log.plugflow")).unwrap();
+    for want in [
+        "scene `vertical_plug`",
+        "engine native",
+        "coupling check: ",
+        "t = 0.0100/0.2 s (5 %)",
+        "t = 0.2000/0.2 s (100 %)",
+        "completed: 0.2000 s simulated",
+    ] {
+        assert!(log.contains(want), "log.plugflow lacks `{want}`:\n{log}");
+    }
+    std::fs::remove_dir_all(&out).ok();
 }
 
 #[test]

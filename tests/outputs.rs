@@ -8,6 +8,19 @@ use std::process::Command;
 use plugflow::run::{run, RunOptions};
 use plugflow::scene::Scene;
 
+/// The Python that reads the outputs back: `PLUGFLOW_PYTHON`, else Debian's own (where the
+/// set-up script installs h5py and VTK from Debian's packages), else `python3` on PATH.
+fn python() -> Command {
+    let exe = std::env::var("PLUGFLOW_PYTHON").unwrap_or_else(|_| {
+        if std::path::Path::new("/usr/bin/python3").exists() {
+            "/usr/bin/python3".to_string()
+        } else {
+            "python3".to_string()
+        }
+    });
+    Command::new(exe)
+}
+
 fn case(name: &str) -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR"))
         .join("cases")
@@ -72,10 +85,7 @@ print(json.dumps(dict(
 "#,
         out.display()
     );
-    let o = Command::new("python3")
-        .args(["-c", &script])
-        .output()
-        .ok()?;
+    let o = python().args(["-c", &script]).output().ok()?;
     let err = String::from_utf8_lossy(&o.stderr).to_string();
     if !o.status.success() && err.contains("No module named 'vtk'") {
         return None;
@@ -127,6 +137,7 @@ fn run_h5_holds_the_run_and_vtk_matches_it() {
         "trace mean {mean} vs summary {reported}"
     );
     // Snapshots at 0, 0.1, 0.2 s in both formats; the last one agrees bit for bit.
+    timeseries_csv_is_run_h5s(&out, &f);
     let snaps = f.group("particles").unwrap().member_names().unwrap();
     assert_eq!(snaps.len(), 3, "{snaps:?}");
     let last = f.group("particles/000002").unwrap();
@@ -233,7 +244,7 @@ fn run_h5_holds_the_run_and_vtk_matches_it() {
 
     // From Python, as users read it. test-all.sh installs h5py and sets
     // PLUGFLOW_REQUIRE_H5PY=1; elsewhere the check runs only where h5py imports.
-    let has_h5py = Command::new("python3")
+    let has_h5py = python()
         .args(["-c", "import h5py"])
         .status()
         .is_ok_and(|s| s.success());
@@ -249,10 +260,7 @@ fn run_h5_holds_the_run_and_vtk_matches_it() {
         "import h5py\nf = h5py.File(r'{}', 'r')\nprint(f['time'].shape[0], f['fields/porosity'].shape[1], f['particles/000002/position'].shape[0], f['fields/pressure'].attrs['unit'])",
         out.join("run.h5").display()
     );
-    let o = Command::new("python3")
-        .args(["-c", &script])
-        .output()
-        .unwrap();
+    let o = python().args(["-c", &script]).output().unwrap();
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let text = String::from_utf8_lossy(&o.stdout);
     assert_eq!(
@@ -314,4 +322,41 @@ fn killed_run_leaves_a_readable_run_h5() {
     assert!(por.shape()[0] >= time.len() - 1);
     assert!(time.windows(2).all(|w| w[1] > w[0]));
     let _ = std::fs::remove_dir_all(&out);
+}
+
+/// `timeseries.csv` holds run.h5's series, one row per sample, bit for bit (written in
+/// Rust's shortest round-trip form), with the columns its header names.
+fn timeseries_csv_is_run_h5s(out: &Path, f: &hdf5::File) {
+    let text = std::fs::read_to_string(out.join("timeseries.csv")).unwrap();
+    let mut lines = text.lines();
+    let header: Vec<&str> = lines.next().unwrap().split(',').collect();
+    let rows: Vec<Vec<f64>> = lines
+        .map(|l| l.split(',').map(|v| v.parse().unwrap()).collect())
+        .collect();
+    let column = |name: &str| -> Vec<f64> {
+        let k = header.iter().position(|h| *h == name).unwrap();
+        rows.iter().map(|r| r[k]).collect()
+    };
+    let h5 = |name: &str| -> Vec<f64> { f.dataset(name).unwrap().read_raw().unwrap() };
+    assert_eq!(column("time_s"), h5("time"));
+    assert_eq!(column("pressure_drop_pa_per_m"), h5("pressure_drop"));
+    assert_eq!(column("grains_in_tube"), h5("particles_in_tube"));
+    assert!(header.contains(&"new_plugs"), "{header:?}");
+    let walls = f.group("walls").unwrap().member_names().unwrap();
+    let mut wall_columns = 0;
+    let split = ["tube_axial", "tube_cross_axis"];
+    for w in walls.iter().filter(|w| !split.contains(&w.as_str())) {
+        let series = f
+            .dataset(&format!("walls/{w}"))
+            .unwrap()
+            .read_2d::<f64>()
+            .unwrap();
+        for (c, axis) in ["x", "y", "z"].iter().enumerate() {
+            let col = column(&format!("wall_{w}_f{axis}_n"));
+            assert_eq!(col, series.column(c).to_vec(), "wall {w} {axis}");
+            wall_columns += 1;
+        }
+    }
+    assert!(wall_columns >= 3, "{header:?}");
+    assert_eq!(header.len(), 4 + wall_columns, "{header:?}");
 }

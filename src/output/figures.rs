@@ -166,6 +166,100 @@ pub fn panels(path: &Path, panels: &[Panel], width: u32, height: u32) -> Result<
     root.present().map_err(|e| err(&e))
 }
 
+/// A field over time and position along the tube (seed 000 fig. 3): one cell per sample
+/// (`times`, s) and position (`z`, m, equally spaced), grey from `range.0` (black) to
+/// `range.1` (white), with axes and a colour bar labelled `what`.
+pub fn spacetime(
+    path: &Path,
+    what: &str,
+    times: &[Real],
+    z: &[Real],
+    rows: &[Vec<Real>],
+    range: (Real, Real),
+) -> Result<(), OutputError> {
+    register_font();
+    let err = |e: &dyn std::fmt::Display| OutputError::new(path.display(), e);
+    if times.is_empty() || z.is_empty() || rows.len() != times.len() {
+        return Err(err(&format!(
+            "{} samples of {} rows and {} positions: nothing consistent to draw",
+            times.len(),
+            rows.len(),
+            z.len()
+        )));
+    }
+    // Cell edges half-way between samples (and positions); the ends half a step out.
+    let edges = |c: &[Real]| -> Vec<Real> {
+        let step = if c.len() > 1 { c[1] - c[0] } else { 1.0 };
+        let mut e = vec![c[0] - 0.5 * step];
+        e.extend(c.windows(2).map(|w| 0.5 * (w[0] + w[1])));
+        e.push(c[c.len() - 1] + 0.5 * step);
+        e
+    };
+    let (te, ze) = (edges(times), edges(z));
+    let grey = |v: Real| {
+        let g = (((v - range.0) / (range.1 - range.0)).clamp(0.0, 1.0) * 255.0).round() as u8;
+        RGBColor(g, g, g)
+    };
+    let width = (times.len() as u32 + 220).clamp(800, 2400);
+    let root = BitMapBackend::new(path, (width, 520)).into_drawing_area();
+    root.fill(&WHITE).map_err(|e| err(&e))?;
+    let (main, bar) = root.split_horizontally(width - 120);
+    let mut chart = ChartBuilder::on(&main)
+        .caption(
+            format!("{what} over time along the tube"),
+            ("sans-serif", 18),
+        )
+        .margin(10)
+        .x_label_area_size(40)
+        .y_label_area_size(60)
+        .build_cartesian_2d(te[0]..te[te.len() - 1], ze[0]..ze[ze.len() - 1])
+        .map_err(|e| err(&e))?;
+    chart
+        .configure_mesh()
+        .disable_mesh()
+        .x_desc("time t (s)")
+        .y_desc("position along the tube (m)")
+        .label_style(("sans-serif", 13))
+        .draw()
+        .map_err(|e| err(&e))?;
+    let ze = &ze;
+    chart
+        .draw_series(rows.iter().enumerate().flat_map(|(i, row)| {
+            let (t0, t1) = (te[i], te[i + 1]);
+            row.iter().enumerate().map(move |(k, &v)| {
+                Rectangle::new([(t0, ze[k]), (t1, ze[k + 1])], grey(v).filled())
+            })
+        }))
+        .map_err(|e| err(&e))?;
+    let mut scale = ChartBuilder::on(&bar)
+        .margin_top(40)
+        .margin_bottom(50)
+        .margin_right(10)
+        .y_label_area_size(50)
+        .build_cartesian_2d(0.0..1.0, range.0..range.1)
+        .map_err(|e| err(&e))?;
+    scale
+        .configure_mesh()
+        .disable_mesh()
+        .disable_x_axis()
+        .y_desc(what)
+        .label_style(("sans-serif", 13))
+        .draw()
+        .map_err(|e| err(&e))?;
+    let n = 100;
+    scale
+        .draw_series((0..n).map(|k| {
+            let (a, b) = (k as Real / n as Real, (k + 1) as Real / n as Real);
+            let (lo, hi) = (
+                range.0 + a * (range.1 - range.0),
+                range.0 + b * (range.1 - range.0),
+            );
+            Rectangle::new([(0.0, lo), (1.0, hi)], grey(0.5 * (lo + hi)).filled())
+        }))
+        .map_err(|e| err(&e))?;
+    root.present().map_err(|e| err(&e))
+}
+
 /// Quartiles (q1, median, q3) of a sample; None when empty.
 pub fn quartiles(mut v: Vec<Real>) -> Option<(Real, Real, Real)> {
     v.retain(|x| x.is_finite());

@@ -1,11 +1,13 @@
 //! What a run writes while it goes. Each format is one file here behind [`RunOutput`]:
 //! [`hdf5::Hdf5Output`] (`run.h5`: field time series, pressure-drop trace, plug table,
-//! snapshots), [`vtk::VtkOutput`] (ParaView: VTK XML particles, gas grid, geometry, series). Figures and `summary.json`
+//! snapshots), [`csv::CsvOutput`] (`timeseries.csv`), [`vtk::VtkOutput`] (ParaView: VTK XML
+//! particles, gas grid, geometry, series). Figures and `summary.json`
 //! are written once at the end (`figures.rs`, `run.rs`).
 //!
 //! Every sample is handed to every output as soon as it is taken, and each output makes it
 //! durable before the run goes on, so a run killed at any moment leaves readable files.
 
+pub mod csv;
 pub mod figures;
 pub mod hdf5;
 pub mod room;

@@ -4,6 +4,7 @@
 //! figures (`report.rs`), also when the run fails part-way, with what it computed up to
 //! then. No physics lives here.
 
+mod log;
 mod report;
 mod sampling;
 
@@ -12,6 +13,7 @@ use std::time::Instant;
 
 use plugflow_coupling::{StepError, Verdict};
 
+use crate::output::csv::CsvOutput;
 use crate::output::hdf5::{Hdf5Output, RunMeta};
 use crate::output::vtk::VtkOutput;
 use crate::output::RunOutput;
@@ -20,6 +22,7 @@ use crate::scene::{Scene, SceneError};
 use crate::setup::{self, Setup};
 use crate::summary::Summary;
 use crate::Real;
+use log::{human_duration, RunLog};
 use report::{summarize, write_figures, Ending};
 use sampling::Sampling;
 
@@ -58,7 +61,8 @@ pub struct RunOptions {
     pub out_dir: Option<PathBuf>,
     /// Simulated time overriding the scene's, s.
     pub duration: Option<Real>,
-    /// Show a progress bar on the terminal.
+    /// Show progress: a bar on a terminal, else a plain line every few seconds on stderr
+    /// (`log.plugflow` gets the lines either way).
     pub progress: bool,
 }
 
@@ -84,37 +88,50 @@ pub fn run(scene: &Scene, opts: &RunOptions) -> Result<RunOutcome, RunError> {
     clear_previous_outputs(&out_dir)?;
     // A disk too full for the run's end is said before the run starts.
     crate::output::room::RoomGuard::new(&out_dir.join("run.h5")).check()?;
+    let mut log = RunLog::create(&out_dir, opts.progress)?;
+    log.line(&format!(
+        "plugflow {}: scene `{}`",
+        env!("CARGO_PKG_VERSION"),
+        scene.file.name
+    ));
     let Setup {
         config: cfg,
         engine: mut dem,
         coupler: mut gas,
-    } = setup::build(scene)?;
+    } = setup::build(scene).inspect_err(|e| log.line(&format!("error: {e}")))?;
     let f = &scene.file;
     let duration = opts.duration.unwrap_or(f.duration.si);
     let dt = dem.time_step();
     let total_steps = (duration / dt).round().max(1.0) as u64;
     let mut per_sample = ((f.output.sample_interval.si / dt).round() as u64).max(1);
+    log.line(&format!(
+        "engine {} {}, dt {dt:e} s, {total_steps} steps for {duration} s simulated",
+        dem.engine_name(),
+        dem.engine_version()
+    ));
     if let Some(g) = &gas {
         // Sample on coupling boundaries.
         per_sample = per_sample.div_ceil(g.substeps) * g.substeps;
-        if opts.progress {
-            for c in &g.checks {
-                eprintln!(
-                    "coupling check: {}: {:.4} (limit {:.4}) {:?}{}",
-                    c.name,
-                    c.value,
-                    c.limit,
-                    c.verdict,
-                    if c.verdict == Verdict::Ok {
-                        String::new()
-                    } else {
-                        format!(" — {}", c.advice)
-                    }
-                );
+        for c in &g.checks {
+            let text = format!(
+                "coupling check: {}: {:.4} (limit {:.4}) {:?}{}",
+                c.name,
+                c.value,
+                c.limit,
+                c.verdict,
+                if c.verdict == Verdict::Ok {
+                    String::new()
+                } else {
+                    format!(" — {}", c.advice)
+                }
+            );
+            if opts.progress {
+                eprintln!("{text}");
             }
+            log.line(&text);
         }
     }
-    let bar = opts.progress.then(|| progress_bar(total_steps));
+    let bar = RunLog::wants_bar(opts.progress).then(|| progress_bar(total_steps));
     let wall = Instant::now();
     let mut sampling = Sampling::new(scene, &cfg);
     let snapshot_spec = f.output.snapshots.as_ref();
@@ -132,6 +149,11 @@ pub fn run(scene: &Scene, opts: &RunOptions) -> Result<RunOutcome, RunError> {
             walls: sampling.name_walls(dem.as_ref()).to_vec(),
             tube_axis: cfg.tube.map(|t| t.axis),
         },
+    )?));
+    outputs.push(Box::new(CsvOutput::create(
+        &out_dir.join("timeseries.csv"),
+        gas.is_some(),
+        &sampling.walls,
     )?));
     if wants(SnapshotFormat::Vtk) {
         outputs.push(Box::new(VtkOutput::for_scene(&out_dir, &cfg)?));
@@ -196,6 +218,10 @@ pub fn run(scene: &Scene, opts: &RunOptions) -> Result<RunOutcome, RunError> {
             }
         };
         samples_taken += 1;
+        log.progress(
+            || progress_line(dem.time(), duration, wall.elapsed().as_secs_f64(), &seen),
+            samples_taken == 1,
+        );
         if INTERRUPT.load(std::sync::atomic::Ordering::Relaxed) {
             failure = Some(RunError::Interrupted { time: dem.time() });
             break;
@@ -216,6 +242,11 @@ pub fn run(scene: &Scene, opts: &RunOptions) -> Result<RunOutcome, RunError> {
     if let Some(b) = &bar {
         b.finish_and_clear();
     }
+    let last = sampling.last_seen();
+    log.progress(
+        || progress_line(dem.time(), duration, wall.elapsed().as_secs_f64(), &last),
+        true,
+    );
     let profiles = sampling.profiles.as_ref().map(|p| p.result());
     // The end: figures, the profiles into run.h5, then the summary, each attempted whatever
     // failed before (a full disk: whatever still fits is written), the summary last so that
@@ -263,6 +294,19 @@ pub fn run(scene: &Scene, opts: &RunOptions) -> Result<RunOutcome, RunError> {
     if let Err(e) = write_summary(&out_dir.join("summary.json"), &summary) {
         end_errors.push(e);
     }
+    for w in &summary.warnings {
+        log.line(&format!("warning: {w}"));
+    }
+    log.line(&format!(
+        "{}: {:.4} s simulated in {:.1} s wall",
+        summary.status, summary.simulated_time_s, summary.wall_time_s
+    ));
+    for later in &end_errors {
+        log.line(&format!("error: {later}"));
+    }
+    if let Some(e) = log.take_failure() {
+        end_errors.push(RunError::Output(e));
+    }
     match failure {
         Some(e) => {
             // The first failure is the run's error; the later ones (the same full disk,
@@ -290,6 +334,21 @@ fn progress_bar(total_steps: u64) -> indicatif::ProgressBar {
     b
 }
 
+/// One plain progress line: simulated time, rate, ETA, grains in the tube, Δp.
+fn progress_line(time: Real, duration: Real, wall: f64, seen: &sampling::Seen) -> String {
+    let rate = time / wall.max(1e-9);
+    format!(
+        "t = {time:.4}/{duration} s ({:.0} %), {rate:.3e} s simulated per wall second, ETA {}, \
+         {} grains in tube{}",
+        100.0 * time / duration,
+        human_duration((duration - time) / rate),
+        seen.in_tube,
+        seen.pressure_drop
+            .map(|d| format!(", Δp {:.2} hPa/m", d / 100.0))
+            .unwrap_or_default()
+    )
+}
+
 fn write_summary(path: &Path, s: &Summary) -> Result<(), RunError> {
     std::fs::write(path, s.to_json_pretty()).map_err(|source| RunError::Io {
         path: path.display().to_string(),
@@ -303,7 +362,9 @@ const STEPS_PER_PIECE: u64 = 500;
 
 /// The files a run writes into its folder (besides the numbered snapshots, see
 /// [`clear_previous_outputs`]).
-const RUN_OUTPUTS: [&str; 12] = [
+const RUN_OUTPUTS: [&str; 14] = [
+    "log.plugflow",
+    "timeseries.csv",
     "particles.pvd",
     "gas.pvd",
     "geometry.vtp",

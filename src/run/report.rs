@@ -327,7 +327,9 @@ pub fn write_figures(
                 420,
             )?;
         }
-        write_porosity_image(out_dir, &s.porosity_rows)?;
+        let times: Vec<Real> = s.dp_trace.iter().map(|d| d.0).collect();
+        let z = gas.map(|g| g.axial_positions()).unwrap_or_default();
+        write_porosity_image(out_dir, &times, &z, &s.porosity_rows)?;
         figures::panels(
             &out_dir.join("pressure_drop.png"),
             &[Panel {
@@ -361,12 +363,14 @@ pub fn write_figures(
 }
 
 /// The spatio-temporal porosity of seed 000 fig. 3: `porosity_tz.csv` (one row per sample,
-/// one column per slice) and `porosity_tz.png` (time across, tube axis up, dark = dense).
-fn write_porosity_image(dir: &Path, rows: &[Vec<Real>]) -> Result<(), RunError> {
-    let io = |path: &Path, source| RunError::Io {
-        path: path.display().to_string(),
-        source,
-    };
+/// one column per gas node plane) and `porosity_tz.png` (time across, tube axis up, dark =
+/// dense, with axes and a colour bar).
+fn write_porosity_image(
+    dir: &Path,
+    times: &[Real],
+    z: &[Real],
+    rows: &[Vec<Real>],
+) -> Result<(), RunError> {
     let csv_path = dir.join("porosity_tz.csv");
     let mut csv = String::new();
     for r in rows {
@@ -374,22 +378,21 @@ fn write_porosity_image(dir: &Path, rows: &[Vec<Real>]) -> Result<(), RunError> 
         csv.push_str(&line.join(","));
         csv.push('\n');
     }
-    std::fs::write(&csv_path, csv).map_err(|e| io(&csv_path, e))?;
+    std::fs::write(&csv_path, csv).map_err(|source| RunError::Io {
+        path: csv_path.display().to_string(),
+        source,
+    })?;
     if rows.is_empty() {
         return Ok(());
     }
-    let (w, h) = (rows.len(), rows[0].len());
-    // Porosity 0.4 → black, 1.0 → white.
-    let pixels: Vec<u8> = (0..h)
-        .rev()
-        .flat_map(|z| {
-            rows.iter().map(move |r| {
-                let v = ((r[z] - 0.4) / 0.6).clamp(0.0, 1.0);
-                (v * 255.0).round() as u8
-            })
-        })
-        .collect();
-    let png = crate::png::grey(w as u32, h as u32, &pixels);
-    let png_path = dir.join("porosity_tz.png");
-    std::fs::write(&png_path, png).map_err(|e| io(&png_path, e))
+    // Porosity 0.4 (denser than any packing here) → black, 1.0 → white.
+    figures::spacetime(
+        &dir.join("porosity_tz.png"),
+        "porosity",
+        times,
+        z,
+        rows,
+        (0.4, 1.0),
+    )?;
+    Ok(())
 }

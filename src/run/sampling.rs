@@ -33,9 +33,12 @@ pub struct Sampling {
     /// sample) and the sums of their forces after the settling time, N.
     pub walls: Vec<String>,
     pub wall_force_sums: Vec<Vec3>,
+    /// What the last sample saw (nothing before the first).
+    last: Seen,
 }
 
 /// What one sample saw, for the progress line.
+#[derive(Debug, Clone, Copy, Default)]
 pub struct Seen {
     pub in_tube: usize,
     pub pressure_drop: Option<Real>,
@@ -91,6 +94,7 @@ impl Sampling {
             taps,
             walls: Vec::new(),
             wall_force_sums: Vec::new(),
+            last: Seen::default(),
         }
     }
 
@@ -244,10 +248,16 @@ impl Sampling {
                 )?;
             }
         }
-        Ok(Seen {
+        self.last = Seen {
             in_tube,
             pressure_drop: dp,
-        })
+        };
+        Ok(self.last)
+    }
+
+    /// What the last sample saw.
+    pub fn last_seen(&self) -> Seen {
+        self.last
     }
 }
 
