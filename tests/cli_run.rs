@@ -117,24 +117,41 @@ fn blow_up_stops_with_step_and_grain_and_keeps_the_summary() {
     std::fs::remove_dir_all(&dir).ok();
 }
 
-/// A run whose stderr is not a terminal (here a pipe, as in a batch job) prints plain
-/// progress lines instead of a bar, and `log.plugflow` keeps the checks, the progress and
-/// the ending.
-#[test]
-fn a_batch_run_prints_plain_progress_and_keeps_a_log() {
+/// `plugflow run cases/vertical_plug.toml` for `duration` seconds with the settling time
+/// `settle`, into a fresh temporary folder named by `tag`: (exit code, output, folder).
+fn vertical_run(
+    tag: &str,
+    duration: &str,
+    settle: &str,
+    extra: &[&str],
+) -> (i32, String, std::path::PathBuf) {
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));
-    let out = std::env::temp_dir().join(format!("plugflow-batch-{}", std::process::id()));
+    let out = std::env::temp_dir().join(format!("plugflow-{tag}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&out);
     let case = root.join("cases/vertical_plug.toml");
-    let (code, text) = plugflow(&[
+    let settling = format!("output.settling_time={settle}");
+    let mut args = vec![
         "run",
         case.to_str().unwrap(),
         "--out",
         out.to_str().unwrap(),
         "--duration",
-        "0.2",
+        duration,
         "--set",
-        "output.settling_time=0.1 s",
-    ]);
+        &settling,
+    ];
+    args.extend_from_slice(extra);
+    let (code, text) = plugflow(&args);
+    (code, text, out)
+}
+
+/// A run whose stderr is not a terminal (here a pipe, as in a batch job) prints plain
+/// progress lines instead of a bar, and `log.plugflow` keeps the checks, the progress and
+/// the ending.
+#[test]
+fn a_batch_run_prints_plain_progress_and_keeps_a_log() {
+    // Without --quiet: the progress lines are what is tested.
+    let (code, text, out) = vertical_run("batch", "0.2", "0.1 s", &[]);
     assert_eq!(code, 0, "{text}");
     // The first sample's line and the last (the run is shorter than the 5 s between lines).
     assert!(text.contains("t = 0.0100/0.2 s (5 %)"), "{text}");
@@ -159,20 +176,7 @@ fn a_batch_run_prints_plain_progress_and_keeps_a_log() {
 
 #[test]
 fn coupled_run_reports_gas_numbers_and_checks() {
-    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
-    let out = std::env::temp_dir().join(format!("plugflow-coupled-{}", std::process::id()));
-    let case = root.join("cases/vertical_plug.toml");
-    let (code, text) = plugflow(&[
-        "run",
-        case.to_str().unwrap(),
-        "--out",
-        out.to_str().unwrap(),
-        "--duration",
-        "0.4",
-        "--set",
-        "output.settling_time=0.2 s",
-        "--quiet",
-    ]);
+    let (code, text, out) = vertical_run("coupled", "0.4", "0.2 s", &["--quiet"]);
     assert_eq!(code, 0, "{text}");
     let s: serde_json::Value = common::read_summary(&out);
     for key in [

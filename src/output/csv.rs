@@ -8,9 +8,7 @@ use std::fs::File;
 use std::io::{BufWriter, Write};
 use std::path::Path;
 
-use plugflow_coupling::ParticleView;
-
-use super::{GasSnapshot, OutputError, RunOutput, Sample};
+use super::{OutputError, RunOutput, Sample};
 use crate::Real;
 
 /// Streams the samples into `timeseries.csv`.
@@ -67,16 +65,6 @@ impl RunOutput for CsvOutput {
             row.extend(f.iter().map(|&v| num(v)));
         }
         self.line(&row.join(","))
-    }
-
-    fn snapshot(
-        &mut self,
-        _time: Real,
-        _step: u64,
-        _particles: &ParticleView,
-        _gas: Option<&GasSnapshot>,
-    ) -> Result<(), OutputError> {
-        Ok(())
     }
 }
 

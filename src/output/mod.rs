@@ -77,17 +77,21 @@ pub struct GasSnapshot<'a> {
 
 /// An output written while the run goes.
 pub trait RunOutput {
-    /// Record one sample; durable on return.
-    fn sample(&mut self, sample: &Sample) -> Result<(), OutputError>;
+    /// Record one sample; durable on return (an output of snapshots only takes none).
+    fn sample(&mut self, _sample: &Sample) -> Result<(), OutputError> {
+        Ok(())
+    }
     /// Record one snapshot of the grains (and the gas on its grid, in gas scenes); durable
-    /// on return.
+    /// on return (an output of series only takes none).
     fn snapshot(
         &mut self,
-        time: Real,
-        step: u64,
-        particles: &ParticleView,
-        gas: Option<&GasSnapshot>,
-    ) -> Result<(), OutputError>;
+        _time: Real,
+        _step: u64,
+        _particles: &ParticleView,
+        _gas: Option<&GasSnapshot>,
+    ) -> Result<(), OutputError> {
+        Ok(())
+    }
     /// The run is over: record what is only known at the end (profiles).
     fn finish(&mut self, _profiles: Option<&ProfileResult>) -> Result<(), OutputError> {
         Ok(())

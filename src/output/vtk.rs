@@ -21,7 +21,7 @@ use std::path::{Path, PathBuf};
 
 use plugflow_coupling::{ParticleView, TubeGrid};
 
-use super::{GasSnapshot, OutputError, RunOutput, Sample};
+use super::{GasSnapshot, OutputError, RunOutput};
 use crate::{Real, Vec3};
 
 /// Writes the snapshot files and their series into a folder.
@@ -303,10 +303,6 @@ impl VtkOutput {
 }
 
 impl RunOutput for VtkOutput {
-    fn sample(&mut self, _sample: &Sample) -> Result<(), OutputError> {
-        Ok(())
-    }
-
     fn snapshot(
         &mut self,
         time: Real,

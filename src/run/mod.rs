@@ -4,8 +4,8 @@
 //! figures (`report.rs`), also when the run fails part-way, with what it computed up to
 //! then. No physics lives here.
 
-mod log;
 mod report;
+mod run_log;
 mod sampling;
 
 use std::path::{Path, PathBuf};
@@ -22,8 +22,8 @@ use crate::scene::{Scene, SceneError};
 use crate::setup::{self, Setup};
 use crate::summary::Summary;
 use crate::Real;
-use log::{human_duration, RunLog};
 use report::{summarize, write_figures, Ending};
+use run_log::{human_duration, RunLog};
 use sampling::Sampling;
 
 /// Set (by the CLI's SIGINT/SIGTERM handler) to end the running run at its next sample,
