@@ -48,7 +48,7 @@ fn short_coupled_run(out: &Path) -> serde_json::Value {
     let opts = RunOptions {
         out_dir: Some(out.to_path_buf()),
         duration: Some(0.3),
-        progress: false,
+        ..RunOptions::default()
     };
     serde_json::to_value(run(&scene, &opts).unwrap().summary).unwrap()
 }

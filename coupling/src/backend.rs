@@ -153,4 +153,22 @@ pub trait DemBackend {
     fn contact_forces(&self) -> Option<Vec<Vec3>> {
         None
     }
+    /// The engine's whole state between two `advance` calls, as bytes only this engine
+    /// reads back (a checkpoint): restoring it and advancing gives bit for bit what
+    /// advancing without the detour gives. Engines that cannot refuse, saying why.
+    fn save_state(&self) -> Result<Vec<u8>, BackendError> {
+        Err(BackendError::Engine {
+            engine: self.engine_name().to_string(),
+            message: "this engine cannot write checkpoints (`output.checkpoint_interval`)"
+                .to_string(),
+        })
+    }
+    /// Take back a state [`DemBackend::save_state`] wrote (an engine built from the same
+    /// scene); refused, naming why, when the bytes are not such a state.
+    fn restore_state(&mut self, _state: &[u8]) -> Result<(), BackendError> {
+        Err(BackendError::Engine {
+            engine: self.engine_name().to_string(),
+            message: "this engine cannot resume from checkpoints".to_string(),
+        })
+    }
 }

@@ -85,7 +85,7 @@ pub enum StepError {
 pub const DOUBLING_EVERY: u64 = 100;
 
 /// Sums of what the exchanges saw, for the run's accuracy report.
-#[derive(Debug, Clone, Default)]
+#[derive(Debug, Clone, Default, serde::Serialize, serde::Deserialize)]
 pub struct CouplingStats {
     /// Node-steps whose porosity was clamped, and node-steps in all.
     pub clamped: u64,
@@ -98,6 +98,19 @@ pub struct CouplingStats {
     pub doubling_checks: u64,
     pub doubling_max: Real,
     pub doubling_sum: Real,
+}
+
+/// What a coupler carries from one exchange to the next, for a checkpoint (taken between
+/// exchanges: the deposited fields and forces are made again by the next one).
+#[derive(Debug, Clone, serde::Serialize, serde::Deserialize)]
+pub struct CouplerState {
+    pub exchanges: u64,
+    pub stats: CouplingStats,
+    pub first_new_id: Option<u64>,
+    /// The stages' wall times so far, s.
+    pub timer: Vec<(String, f64)>,
+    /// The gas solver's own state ([`GasSolver::save_state`]).
+    pub gas: Vec<u8>,
 }
 
 /// A gas solver and a drag law coupled to a DEM backend.
@@ -155,6 +168,27 @@ impl Coupler {
             bad: Vec::new(),
             first_new_id: None,
         }
+    }
+
+    /// The state a checkpoint keeps (see [`CouplerState`]).
+    pub fn save_state(&self) -> Result<CouplerState, GasError> {
+        Ok(CouplerState {
+            exchanges: self.exchanges,
+            stats: self.stats.clone(),
+            first_new_id: self.first_new_id,
+            timer: self.timer.entries(),
+            gas: self.gas.save_state()?,
+        })
+    }
+
+    /// Go on from a checkpoint's state (a coupler built from the same scene).
+    pub fn restore_state(&mut self, state: &CouplerState) -> Result<(), GasError> {
+        self.gas.restore_state(&state.gas)?;
+        self.exchanges = state.exchanges;
+        self.stats = state.stats.clone();
+        self.first_new_id = state.first_new_id;
+        self.timer = StageTimer::from_entries(&state.timer);
+        Ok(())
     }
 
     /// Advance the coupled system by `steps` DEM steps: whole coupling intervals, then a

@@ -21,6 +21,9 @@ pub enum GasError {
     /// The linear solve failed.
     #[error("gas solve failed at gas step {step}: {reason}")]
     Solve { step: u64, reason: String },
+    /// A checkpoint's gas state does not fit this solver (or it keeps none).
+    #[error("gas state: {reason}")]
+    State { reason: String },
     /// A pressure became NaN or infinite.
     #[error("gas pressure not finite at gas step {step}, node {node} (slice {slice})")]
     NonFinite {
@@ -68,5 +71,19 @@ pub trait GasSolver {
         _dt: Real,
     ) -> Result<Option<Real>, GasError> {
         Ok(None)
+    }
+    /// The solver's state between two steps as bytes only it reads back (a checkpoint):
+    /// restored into a solver built from the same scene, later steps give the same bits.
+    fn save_state(&self) -> Result<Vec<u8>, GasError> {
+        Err(GasError::State {
+            reason: format!("the `{}` gas cannot write checkpoints", self.name()),
+        })
+    }
+    /// Take back a state [`GasSolver::save_state`] wrote; refused, naming why, when the
+    /// bytes are not such a state or the grid differs.
+    fn restore_state(&mut self, _state: &[u8]) -> Result<(), GasError> {
+        Err(GasError::State {
+            reason: format!("the `{}` gas cannot resume from checkpoints", self.name()),
+        })
     }
 }

@@ -24,7 +24,7 @@ pub use backend::{
     BackendError, DemBackend, GrainFlow, ImplicitDrag, NewParticle, ParticleView, WallForce,
 };
 pub use checks::{CouplingCheck, Verdict};
-pub use coupler::{Coupler, CouplingStats, ExchangeError, Stage, StepError};
+pub use coupler::{Coupler, CouplerState, CouplingStats, ExchangeError, Stage, StepError};
 pub use drag::{DarcyVolumeForce, DragLaw, GrainInFluid};
 pub use gas::{GasError, GasSolver, GasStepReport};
 pub use grid::{deposit, GranularFields, Stencil, TubeGrid};

@@ -1,12 +1,14 @@
 //! Named stage timers: every stage of a step accumulates its wall time here so a run can
 //! print where the time went (shared/DESIGN.md: "each stage is a named, timed stage").
 
+use std::borrow::Cow;
 use std::time::Instant;
 
 /// Accumulated wall time per named stage, in the order the stages were first seen.
 #[derive(Debug, Default, Clone)]
 pub struct StageTimer {
-    names: Vec<&'static str>,
+    /// Stage names: the code's own, or read back from a checkpoint.
+    names: Vec<Cow<'static, str>>,
     seconds: Vec<f64>,
 }
 
@@ -21,9 +23,18 @@ impl StageTimer {
         match self.names.iter().position(|n| *n == name) {
             Some(k) => self.seconds[k] += seconds,
             None => {
-                self.names.push(name);
+                self.names.push(Cow::Borrowed(name));
                 self.seconds.push(seconds);
             }
+        }
+    }
+
+    /// A timer holding `entries` (as [`StageTimer::entries`] gave them): a resumed run's
+    /// stage times go on from the checkpoint's.
+    pub fn from_entries(entries: &[(String, f64)]) -> Self {
+        Self {
+            names: entries.iter().map(|(n, _)| Cow::Owned(n.clone())).collect(),
+            seconds: entries.iter().map(|(_, s)| *s).collect(),
         }
     }
 

@@ -1,7 +1,7 @@
 //! SplitMix64: a small, fast, seedable generator; same seed ⇒ same stream on every machine.
 
 /// Deterministic pseudo-random numbers.
-#[derive(Debug, Clone)]
+#[derive(Debug, Clone, serde::Serialize, serde::Deserialize)]
 pub struct Rng(u64);
 
 impl Rng {

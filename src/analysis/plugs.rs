@@ -28,7 +28,7 @@ pub struct SliceFrame {
 }
 
 /// Slices of a tube.
-#[derive(Debug, Clone, Copy)]
+#[derive(Debug, Clone, Copy, serde::Serialize, serde::Deserialize)]
 pub struct Slicer {
     /// Inlet centre, m.
     pub origin: Vec3,
@@ -93,7 +93,7 @@ impl Slicer {
 }
 
 /// One plug in one frame.
-#[derive(Debug, Clone, Copy)]
+#[derive(Debug, Clone, Copy, serde::Serialize, serde::Deserialize)]
 pub struct PlugObservation {
     /// Frame time, s.
     pub time: Real,
@@ -114,7 +114,7 @@ pub struct PlugObservation {
 }
 
 /// Finds plugs in frames and follows them.
-#[derive(Debug, Clone)]
+#[derive(Debug, Clone, serde::Serialize, serde::Deserialize)]
 pub struct PlugTracker {
     /// Porosity below which a slice belongs to a plug (0.6 in the seeds).
     pub threshold: Real,

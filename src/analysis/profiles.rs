@@ -38,7 +38,7 @@ fn ball_points() -> Vec<Vec3> {
 /// The elastic normal force of a grain pressed δ into the tube wall, which turns the grains'
 /// overlaps with the wall into the wall normal stress profile (the dashpot is left out: the
 /// profile is dominated by grains resting on the wall).
-#[derive(Debug, Clone, Copy)]
+#[derive(Debug, Clone, Copy, serde::Serialize, serde::Deserialize)]
 pub enum WallSpring {
     /// F = k_n δ (Hooke), k_n of the grain–wall pair, N/m.
     Linear { kn: Real },
@@ -57,7 +57,7 @@ impl WallSpring {
 }
 
 /// Which plugs enter the profiles.
-#[derive(Debug, Clone, Copy)]
+#[derive(Debug, Clone, Copy, serde::Serialize, serde::Deserialize)]
 pub struct PlugWindow {
     /// Plug length range, m.
     pub length: (Real, Real),
@@ -78,7 +78,7 @@ impl Default for PlugWindow {
 }
 
 /// The tube in the frame of the profiles.
-#[derive(Debug, Clone, Copy)]
+#[derive(Debug, Clone, Copy, serde::Serialize, serde::Deserialize)]
 pub struct TubeFrame {
     pub origin: Vec3,
     pub axis: Vec3,
@@ -90,7 +90,7 @@ pub struct TubeFrame {
 }
 
 /// Accumulated profiles.
-#[derive(Debug, Clone)]
+#[derive(Debug, Clone, serde::Serialize, serde::Deserialize)]
 pub struct Profiles {
     pub window: PlugWindow,
     tube: TubeFrame,

@@ -8,7 +8,7 @@ use serde_json::{json, Value};
 use crate::Real;
 
 /// One transducer: its name and its two taps' positions along the axis, m.
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct PressureTap {
     pub name: String,
     pub from: Real,
@@ -37,7 +37,7 @@ pub fn pressure_at(positions: &[Real], profile: &[Real], length: Real, s: Real) 
 }
 
 /// The transducers' readings over a run.
-#[derive(Debug, Clone, Default)]
+#[derive(Debug, Clone, Default, serde::Serialize, serde::Deserialize)]
 pub struct TapTrace {
     pub taps: Vec<PressureTap>,
     /// (time s, one reading per tap in Pa).

@@ -27,6 +27,11 @@ pub struct RunArgs {
     /// No progress bar.
     #[arg(long)]
     pub quiet: bool,
+    /// Go on from a checkpoint: a run folder (its latest in `checkpoints/`) or a `.pfc`
+    /// file. The scene must be the run's; its duration, checkpoint interval and threads
+    /// may differ. The run writes into that run's folder unless --out says otherwise.
+    #[arg(long, value_name = "DIR")]
+    pub resume: Option<PathBuf>,
 }
 
 pub fn main(a: RunArgs) -> ExitCode {
@@ -36,6 +41,7 @@ pub fn main(a: RunArgs) -> ExitCode {
         duration,
         set,
         quiet,
+        resume,
     } = a;
     let s = match checked_scene(&scene, &set, duration) {
         Ok(s) => s,
@@ -45,6 +51,7 @@ pub fn main(a: RunArgs) -> ExitCode {
         out_dir: out,
         duration,
         progress: !quiet,
+        resume,
     };
     // Ctrl-C / SIGTERM: end at the next sample with every output written. (A second
     // signal while it finishes changes nothing; failing to install it only loses this.)
@@ -59,6 +66,10 @@ pub fn main(a: RunArgs) -> ExitCode {
             ExitCode::SUCCESS
         }
         Err(RunError::Scene(e)) => {
+            eprintln!("error: {e}");
+            ExitCode::from(2)
+        }
+        Err(RunError::Checkpoint(e)) => {
             eprintln!("error: {e}");
             ExitCode::from(2)
         }

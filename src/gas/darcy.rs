@@ -82,6 +82,19 @@ struct Edge {
     dir: u8,
 }
 
+/// What a d'Arcy gas carries from step to step (a checkpoint; the matrices and their
+/// factorisation's pattern are rebuilt from the grid, to the same bits).
+#[derive(serde::Serialize, serde::Deserialize)]
+struct DarcyState {
+    nodes: usize,
+    p: Vec<Real>,
+    p_prev: Vec<Real>,
+    last_dt: Option<Real>,
+    steps: u64,
+    phi: Vec<Real>,
+    superficial_velocity: Real,
+}
+
 /// The d'Arcy gas solver.
 pub struct DarcyGas {
     grid: TubeGrid,
@@ -543,6 +556,43 @@ impl GasSolver for DarcyGas {
 
     fn pressure(&self) -> &[Real] {
         &self.p
+    }
+
+    fn save_state(&self) -> Result<Vec<u8>, GasError> {
+        let state = DarcyState {
+            nodes: self.grid.len(),
+            p: self.p.clone(),
+            p_prev: self.p_prev.clone(),
+            last_dt: self.last_dt,
+            steps: self.steps,
+            phi: self.phi.clone(),
+            superficial_velocity: self.params.superficial_velocity,
+        };
+        bincode::serialize(&state).map_err(|e| GasError::State {
+            reason: format!("cannot encode the d'Arcy gas: {e}"),
+        })
+    }
+
+    fn restore_state(&mut self, bytes: &[u8]) -> Result<(), GasError> {
+        let s: DarcyState = bincode::deserialize(bytes).map_err(|e| GasError::State {
+            reason: format!("not a d'Arcy gas state: {e}"),
+        })?;
+        let n = self.grid.len();
+        if s.nodes != n || s.p.len() != n || s.p_prev.len() != n || s.phi.len() != n {
+            return Err(GasError::State {
+                reason: format!(
+                    "written for a grid of {} nodes, the scene's has {n}",
+                    s.nodes
+                ),
+            });
+        }
+        self.p = s.p;
+        self.p_prev = s.p_prev;
+        self.last_dt = s.last_dt;
+        self.steps = s.steps;
+        self.phi = s.phi;
+        self.params.superficial_velocity = s.superficial_velocity;
+        Ok(())
     }
 
     fn step_doubling_error(

@@ -5,7 +5,7 @@
 //! bit). Columns a scene does not have (Δp without gas) are left out, not written as 0.
 
 use std::fs::File;
-use std::io::{BufWriter, Write};
+use std::io::{BufWriter, Seek, Write};
 use std::path::Path;
 
 use super::{OutputError, RunOutput, Sample};
@@ -43,6 +43,49 @@ impl CsvOutput {
         };
         me.line(&header.join(","))?;
         Ok(me)
+    }
+
+    /// The file of a run resumed from a checkpoint, cut back to its header and the first
+    /// `samples` rows (what the run had written at the checkpoint), to go on appending.
+    pub fn reopen(
+        path: &Path,
+        gas: bool,
+        walls: &[String],
+        samples: u64,
+    ) -> Result<Self, OutputError> {
+        let shown = path.display().to_string();
+        let fail = |e: std::io::Error| OutputError::new(&shown, e);
+        let text = std::fs::read(path).map_err(fail)?;
+        let lines = 1 + samples as usize;
+        let ends: Vec<usize> = text
+            .iter()
+            .enumerate()
+            .filter(|(_, &b)| b == b'\n')
+            .map(|(k, _)| k + 1)
+            .take(lines)
+            .collect();
+        if ends.len() < lines {
+            return Err(OutputError::new(
+                &shown,
+                format!(
+                    "holds {} rows, the checkpoint was taken after {samples}",
+                    ends.len().saturating_sub(1)
+                ),
+            ));
+        }
+        let file = std::fs::OpenOptions::new()
+            .write(true)
+            .open(path)
+            .map_err(fail)?;
+        file.set_len(ends[lines - 1] as u64).map_err(fail)?;
+        let mut file = BufWriter::new(file);
+        file.seek(std::io::SeekFrom::End(0)).map_err(fail)?;
+        Ok(Self {
+            path: shown,
+            file,
+            gas,
+            walls: walls.len(),
+        })
     }
 
     fn line(&mut self, text: &str) -> Result<(), OutputError> {

@@ -189,6 +189,125 @@ impl Hdf5Output {
         })
     }
 
+    /// Open the `run.h5` of a run resumed from a checkpoint and cut it back to what the
+    /// run had written then: `samples` rows of every series, the plug rows observed by
+    /// `time`, `snapshots` particle snapshots, no profiles (they are written at the end).
+    /// The layout must be the one [`Hdf5Output::create`] makes for `meta`.
+    pub fn reopen(
+        path: &Path,
+        meta: &RunMeta,
+        samples: u64,
+        snapshots: usize,
+        time: Real,
+    ) -> Result<Self, OutputError> {
+        let name = path.display().to_string();
+        let err = |e: hdf5::Error| OutputError::new(&name, e);
+        let file = File::with_options()
+            .with_fapl(|p| p.fclose_degree(hdf5::file::FileCloseDegree::Strong))
+            .open_rw(path)
+            .map_err(err)?;
+        let rows = samples as usize;
+        let time_ds = file.dataset("time").map_err(err)?;
+        if time_ds.size() < rows {
+            return Err(OutputError::new(
+                &name,
+                format!(
+                    "holds {} samples, the checkpoint was taken after {rows}",
+                    time_ds.size()
+                ),
+            ));
+        }
+        let cut1 = |d: &Dataset| d.resize(rows).map_err(err);
+        let cut2 = |d: &Dataset, w: usize| d.resize((rows, w)).map_err(err);
+        let open1 = |g: &str| -> Result<Dataset, OutputError> {
+            let d = file.dataset(g).map_err(err)?;
+            cut1(&d)?;
+            Ok(d)
+        };
+        let open2 = |g: &str, w: usize| -> Result<Dataset, OutputError> {
+            let d = file.dataset(g).map_err(err)?;
+            cut2(&d, w)?;
+            Ok(d)
+        };
+        cut1(&time_ds)?;
+        let in_tube = open1("particles_in_tube")?;
+        let pressure_drop = meta
+            .z_gas
+            .as_ref()
+            .map(|_| open1("pressure_drop"))
+            .transpose()?;
+        let (mut slice_porosity, mut slice_velocity, mut plugs) = (None, None, None);
+        if let Some(z) = &meta.z_slices {
+            slice_porosity = Some(open2("fields/porosity", z.len())?);
+            slice_velocity = Some(open2("fields/granular_velocity", z.len())?);
+            let columns = PLUG_COLUMNS
+                .iter()
+                .map(|(n, _)| file.dataset(&format!("plugs/{n}")).map_err(err))
+                .collect::<Result<Vec<_>, _>>()?;
+            // Plug rows come in time order: keep those observed by the checkpoint.
+            let times: Vec<Real> = columns[0].read_raw().map_err(err)?;
+            let kept = times.iter().take_while(|&&t| t <= time).count();
+            for c in &columns {
+                c.resize(kept).map_err(err)?;
+            }
+            plugs = Some(PlugColumns {
+                rows: kept,
+                columns,
+            });
+        }
+        let (mut gas_porosity, mut gas_pressure) = (None, None);
+        if let Some(z) = &meta.z_gas {
+            gas_porosity = Some(open2("fields/gas_porosity", z.len())?);
+            gas_pressure = Some(open2("fields/pressure", z.len())?);
+        }
+        let walls = meta
+            .walls
+            .iter()
+            .map(|w| open2(&format!("walls/{}", dataset_name(w)), 3))
+            .collect::<Result<Vec<_>, _>>()?;
+        let tube_split = match (meta.tube_axis, meta.walls.iter().position(|w| w == "tube")) {
+            (Some(axis), Some(wall)) => Some(TubeSplit {
+                wall,
+                axis,
+                axial: open1("walls/tube_axial")?,
+                cross_axis: open1("walls/tube_cross_axis")?,
+            }),
+            _ => None,
+        };
+        let particles = if meta.snapshots {
+            let g = file.group("particles").map_err(err)?;
+            for later in g.member_names().map_err(err)? {
+                if later.parse::<usize>().is_ok_and(|k| k >= snapshots) {
+                    g.unlink(&later).map_err(err)?;
+                }
+            }
+            Some(g)
+        } else {
+            None
+        };
+        if file.link_exists("profiles") {
+            file.unlink("profiles").map_err(err)?;
+        }
+        file.flush().map_err(err)?;
+        Ok(Self {
+            path: name,
+            file,
+            rows,
+            time: time_ds,
+            pressure_drop,
+            in_tube,
+            slice_porosity,
+            slice_velocity,
+            gas_porosity,
+            gas_pressure,
+            plugs,
+            particles,
+            snapshots,
+            walls,
+            tube_split,
+        })
+    }
+
     fn err(&self, e: hdf5::Error) -> OutputError {
         OutputError::new(&self.path, e)
     }

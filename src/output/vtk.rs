@@ -296,6 +296,50 @@ impl VtkOutput {
         Self::new(dir, tube, &planes, size)
     }
 
+    /// The series of a run resumed from a checkpoint: the snapshots taken by then (at
+    /// `times`) stay, later ones of the stopped run are removed, the `.pvd` files are
+    /// written again for the kept ones.
+    pub fn reopen(
+        dir: &Path,
+        cfg: &crate::dem::DemConfig,
+        times: &[Real],
+        gas: bool,
+    ) -> Result<Self, OutputError> {
+        let mut me = Self::for_scene(dir, cfg)?;
+        let kept = times.len();
+        let entries = std::fs::read_dir(dir).map_err(|e| OutputError::new(dir.display(), e))?;
+        for entry in entries.flatten() {
+            let name = entry.file_name();
+            let name = name.to_string_lossy();
+            let number = name
+                .strip_prefix("particles_")
+                .and_then(|n| n.strip_suffix(".vtp"))
+                .or_else(|| {
+                    name.strip_prefix("gas_")
+                        .and_then(|n| n.strip_suffix(".vts"))
+                });
+            if number
+                .and_then(|n| n.parse::<usize>().ok())
+                .is_some_and(|k| k >= kept)
+            {
+                std::fs::remove_file(entry.path())
+                    .map_err(|e| OutputError::new(entry.path().display(), e))?;
+            }
+        }
+        for (k, &t) in times.iter().enumerate() {
+            me.particles.push((t, format!("particles_{k:06}.vtp")));
+            if gas {
+                me.gas.push((t, format!("gas_{k:06}.vts")));
+            }
+        }
+        me.written = kept;
+        write_atomic(&dir.join("particles.pvd"), pvd(&me.particles).as_bytes())?;
+        if gas {
+            write_atomic(&dir.join("gas.pvd"), pvd(&me.gas).as_bytes())?;
+        }
+        Ok(me)
+    }
+
     /// Snapshots written so far.
     pub fn written(&self) -> usize {
         self.written

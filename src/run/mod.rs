@@ -4,6 +4,7 @@
 //! figures (`report.rs`), also when the run fails part-way, with what it computed up to
 //! then. No physics lives here.
 
+pub mod checkpoint;
 mod report;
 mod run_log;
 mod sampling;
@@ -46,6 +47,9 @@ pub enum RunError {
     /// An output file (run.h5, VTK, figure) could not be written.
     #[error(transparent)]
     Output(#[from] crate::output::OutputError),
+    /// A checkpoint to resume from cannot be used.
+    #[error(transparent)]
+    Checkpoint(#[from] checkpoint::CheckpointError),
     /// Output could not be written.
     #[error("cannot write `{path}`: {source}")]
     Io {
@@ -64,6 +68,9 @@ pub struct RunOptions {
     /// Show progress: a bar on a terminal, else a plain line every few seconds on stderr
     /// (`log.plugflow` gets the lines either way).
     pub progress: bool,
+    /// Go on from a checkpoint: a `.pfc` file, or a run folder (its latest checkpoint).
+    /// The run writes into that run's folder unless `out_dir` says otherwise.
+    pub resume: Option<PathBuf>,
 }
 
 /// Headline numbers of a finished run (also written to `summary.json`).
@@ -77,18 +84,35 @@ pub struct RunOutcome {
 
 /// Run a scene to its end.
 pub fn run(scene: &Scene, opts: &RunOptions) -> Result<RunOutcome, RunError> {
-    let out_dir = opts
-        .out_dir
-        .clone()
-        .unwrap_or_else(|| scene.default_output_dir());
+    // A resumed run: its checkpoint, checked against the scene before anything is touched.
+    let resumed = match &opts.resume {
+        Some(arg) => {
+            let path = checkpoint::locate(arg)?;
+            let c = checkpoint::read(&path, scene)?;
+            Some((path, c))
+        }
+        None => None,
+    };
+    let out_dir = match (&opts.out_dir, &resumed) {
+        (Some(d), _) => d.clone(),
+        // The run folder the checkpoint lies in (`<run>/checkpoints/<file>`).
+        (None, Some((path, _))) => path
+            .parent()
+            .and_then(Path::parent)
+            .map(Path::to_path_buf)
+            .unwrap_or_else(|| scene.default_output_dir()),
+        (None, None) => scene.default_output_dir(),
+    };
     std::fs::create_dir_all(&out_dir).map_err(|source| RunError::Io {
         path: out_dir.display().to_string(),
         source,
     })?;
-    clear_previous_outputs(&out_dir)?;
+    if resumed.is_none() {
+        clear_previous_outputs(&out_dir)?;
+    }
     // A disk too full for the run's end is said before the run starts.
     crate::output::room::RoomGuard::new(&out_dir.join("run.h5")).check()?;
-    let mut log = RunLog::create(&out_dir, opts.progress)?;
+    let mut log = RunLog::create(&out_dir, opts.progress, resumed.is_some())?;
     log.line(&format!(
         "plugflow {}: scene `{}`",
         env!("CARGO_PKG_VERSION"),
@@ -99,6 +123,46 @@ pub fn run(scene: &Scene, opts: &RunOptions) -> Result<RunOutcome, RunError> {
         engine: mut dem,
         coupler: mut gas,
     } = setup::build(scene).inspect_err(|e| log.line(&format!("error: {e}")))?;
+    let mut sampling = Sampling::new(scene, &cfg);
+    let mut at = Progress::default();
+    if let Some((path, c)) = resumed {
+        log.line(&format!(
+            "resumed from `{}` at t = {} s (step {}, sample {})",
+            path.display(),
+            c.time,
+            c.steps_done,
+            c.samples_taken
+        ));
+        let refused = |reason: String| checkpoint::CheckpointError {
+            path: path.display().to_string(),
+            reason,
+        };
+        dem.restore_state(&c.dem)
+            .map_err(|e| refused(e.to_string()))?;
+        match (gas.as_mut(), &c.coupler) {
+            (Some(g), Some(state)) => g.restore_state(state).map_err(|e| refused(e.to_string()))?,
+            (None, None) => {}
+            _ => {
+                return Err(
+                    refused("the gas of the checkpoint and the scene's differ".into()).into(),
+                )
+            }
+        }
+        if c.threads != cfg.threads {
+            log.line(&format!(
+                "warning: the checkpoint ran on {} threads, this run on {}: the same physics, \
+                 not the same bits",
+                c.threads, cfg.threads
+            ));
+        }
+        sampling = c.sampling;
+        at = Progress {
+            steps_done: c.steps_done,
+            samples_taken: c.samples_taken,
+            snapshot_times: c.snapshot_times,
+            wall_before: c.wall_time_s,
+        };
+    }
     let f = &scene.file;
     let duration = opts.duration.unwrap_or(f.duration.si);
     let dt = dem.time_step();
@@ -133,35 +197,68 @@ pub fn run(scene: &Scene, opts: &RunOptions) -> Result<RunOutcome, RunError> {
     }
     let bar = RunLog::wants_bar(opts.progress).then(|| progress_bar(total_steps));
     let wall = Instant::now();
-    let mut sampling = Sampling::new(scene, &cfg);
+    let start = dem.time();
     let snapshot_spec = f.output.snapshots.as_ref();
     let wants = |fmt: SnapshotFormat| snapshot_spec.is_some_and(|s| s.formats.contains(&fmt));
     let mut outputs: Vec<Box<dyn RunOutput>> = Vec::new();
-    outputs.push(Box::new(Hdf5Output::create(
-        &out_dir.join("run.h5"),
-        &RunMeta {
-            scene_text: &scene.text,
-            engine: dem.engine_name(),
-            engine_version: &dem.engine_version(),
-            z_slices: sampling.slice_centres(),
-            z_gas: gas.as_ref().map(|g| g.axial_positions()),
-            snapshots: wants(SnapshotFormat::Hdf5),
-            walls: sampling.name_walls(dem.as_ref()).to_vec(),
-            tube_axis: cfg.tube.map(|t| t.axis),
-        },
-    )?));
-    outputs.push(Box::new(CsvOutput::create(
-        &out_dir.join("timeseries.csv"),
-        gas.is_some(),
-        &sampling.walls,
-    )?));
-    if wants(SnapshotFormat::Vtk) {
-        outputs.push(Box::new(VtkOutput::for_scene(&out_dir, &cfg)?));
+    let meta = RunMeta {
+        scene_text: &scene.text,
+        engine: dem.engine_name(),
+        engine_version: &dem.engine_version(),
+        z_slices: sampling.slice_centres(),
+        z_gas: gas.as_ref().map(|g| g.axial_positions()),
+        snapshots: wants(SnapshotFormat::Hdf5),
+        walls: sampling.name_walls(dem.as_ref()).to_vec(),
+        tube_axis: cfg.tube.map(|t| t.axis),
+    };
+    let (h5, csv) = (out_dir.join("run.h5"), out_dir.join("timeseries.csv"));
+    if at.steps_done == 0 {
+        outputs.push(Box::new(Hdf5Output::create(&h5, &meta)?));
+        outputs.push(Box::new(CsvOutput::create(
+            &csv,
+            gas.is_some(),
+            &sampling.walls,
+        )?));
+        if wants(SnapshotFormat::Vtk) {
+            outputs.push(Box::new(VtkOutput::for_scene(&out_dir, &cfg)?));
+        }
+    } else {
+        // Resumed: what the outputs hold past the checkpoint (the stopped run went on
+        // after it) is cut off, then the run appends as the uninterrupted one would.
+        let (samples, snaps, time) = (at.samples_taken, &at.snapshot_times, dem.time());
+        outputs.push(Box::new(Hdf5Output::reopen(
+            &h5,
+            &meta,
+            samples,
+            snaps.len(),
+            time,
+        )?));
+        outputs.push(Box::new(CsvOutput::reopen(
+            &csv,
+            gas.is_some(),
+            &sampling.walls,
+            samples,
+        )?));
+        if wants(SnapshotFormat::Vtk) {
+            outputs.push(Box::new(VtkOutput::reopen(
+                &out_dir,
+                &cfg,
+                snaps,
+                gas.is_some(),
+            )?));
+        }
     }
+    drop(meta);
     let samples_per_snapshot =
         snapshot_spec.map(|s| ((s.interval.si / (per_sample as Real * dt)).round() as u64).max(1));
-    let mut samples_taken = 0u64;
-    let mut done = 0u64;
+    let samples_per_checkpoint = f
+        .output
+        .checkpoint_interval
+        .map(|c| ((c.si / (per_sample as Real * dt)).round() as u64).max(1));
+    let mut samples_taken = at.samples_taken;
+    let mut done = at.steps_done;
+    let mut snapshot_times = std::mem::take(&mut at.snapshot_times);
+    let mut checkpointed_at = (at.steps_done > 0).then_some(at.steps_done);
     let mut failure = None;
     let mut room = crate::output::room::RoomGuard::new(&out_dir.join("run.h5"));
     while done < total_steps {
@@ -217,9 +314,41 @@ pub fn run(scene: &Scene, opts: &RunOptions) -> Result<RunOutcome, RunError> {
                 break;
             }
         };
+        if snapshot_due {
+            snapshot_times.push(dem.time());
+        }
         samples_taken += 1;
+        if samples_per_checkpoint.is_some_and(|k| samples_taken.is_multiple_of(k)) {
+            let state = RunState {
+                steps_done: done,
+                samples_taken,
+                snapshot_times: &snapshot_times,
+                wall_time_s: at.wall_before + wall.elapsed().as_secs_f64(),
+            };
+            let saved = save_checkpoint(
+                &out_dir,
+                scene,
+                dem.as_ref(),
+                gas.as_ref(),
+                &sampling,
+                &state,
+            );
+            if let Err(e) = saved {
+                failure = Some(e);
+                break;
+            }
+            checkpointed_at = Some(done);
+        }
         log.progress(
-            || progress_line(dem.time(), duration, wall.elapsed().as_secs_f64(), &seen),
+            || {
+                progress_line(
+                    dem.time(),
+                    start,
+                    duration,
+                    wall.elapsed().as_secs_f64(),
+                    &seen,
+                )
+            },
             samples_taken == 1,
         );
         if INTERRUPT.load(std::sync::atomic::Ordering::Relaxed) {
@@ -242,9 +371,44 @@ pub fn run(scene: &Scene, opts: &RunOptions) -> Result<RunOutcome, RunError> {
     if let Some(b) = &bar {
         b.finish_and_clear();
     }
+    // The run's end (or its stop on request) is a checkpoint too: a finished run can be
+    // taken further, a stopped one resumed. Not after a failure: that state is broken.
+    let stopped_cleanly = matches!(failure, None | Some(RunError::Interrupted { .. }));
+    if samples_per_checkpoint.is_some() && stopped_cleanly && checkpointed_at != Some(done) {
+        let state = RunState {
+            steps_done: done,
+            samples_taken,
+            snapshot_times: &snapshot_times,
+            wall_time_s: at.wall_before + wall.elapsed().as_secs_f64(),
+        };
+        let saved = save_checkpoint(
+            &out_dir,
+            scene,
+            dem.as_ref(),
+            gas.as_ref(),
+            &sampling,
+            &state,
+        );
+        match saved {
+            Ok(path) => log.line(&format!(
+                "checkpoint `{}` at t = {} s",
+                path.display(),
+                dem.time()
+            )),
+            Err(e) => failure = failure.or(Some(e)),
+        }
+    }
     let last = sampling.last_seen();
     log.progress(
-        || progress_line(dem.time(), duration, wall.elapsed().as_secs_f64(), &last),
+        || {
+            progress_line(
+                dem.time(),
+                start,
+                duration,
+                wall.elapsed().as_secs_f64(),
+                &last,
+            )
+        },
         true,
     );
     let profiles = sampling.profiles.as_ref().map(|p| p.result());
@@ -289,7 +453,7 @@ pub fn run(scene: &Scene, opts: &RunOptions) -> Result<RunOutcome, RunError> {
             Some(e @ RunError::Interrupted { .. }) => e.to_string(),
             Some(e) => format!("failed: {e}"),
         },
-        wall_time: wall.elapsed().as_secs_f64(),
+        wall_time: at.wall_before + wall.elapsed().as_secs_f64(),
     });
     if let Err(e) = write_summary(&out_dir.join("summary.json"), &summary) {
         end_errors.push(e);
@@ -323,6 +487,57 @@ pub fn run(scene: &Scene, opts: &RunOptions) -> Result<RunOutcome, RunError> {
     }
 }
 
+/// Where a run starts: at zero, or where its checkpoint left off.
+#[derive(Default)]
+struct Progress {
+    steps_done: u64,
+    samples_taken: u64,
+    snapshot_times: Vec<Real>,
+    /// Wall time of the run before this process, s.
+    wall_before: f64,
+}
+
+/// The loop's counters at a checkpoint.
+struct RunState<'a> {
+    steps_done: u64,
+    samples_taken: u64,
+    snapshot_times: &'a [Real],
+    wall_time_s: f64,
+}
+
+/// Write a checkpoint of the run as it stands (between samples: no advance is under way).
+fn save_checkpoint(
+    out_dir: &Path,
+    scene: &Scene,
+    dem: &dyn plugflow_coupling::DemBackend,
+    gas: Option<&plugflow_coupling::Coupler>,
+    sampling: &Sampling,
+    state: &RunState,
+) -> Result<PathBuf, RunError> {
+    let failed = |reason: String| RunError::Io {
+        path: checkpoint::folder(out_dir).display().to_string(),
+        source: std::io::Error::other(format!("cannot take a checkpoint: {reason}")),
+    };
+    let c = checkpoint::Checkpoint {
+        plugflow_version: env!("CARGO_PKG_VERSION").to_string(),
+        scene_identity: checkpoint::scene_identity(scene),
+        engine: dem.engine_name().to_string(),
+        threads: scene.file.dem.threads,
+        time: dem.time(),
+        steps_done: state.steps_done,
+        samples_taken: state.samples_taken,
+        snapshot_times: state.snapshot_times.to_vec(),
+        wall_time_s: state.wall_time_s,
+        dem: dem.save_state().map_err(|e| failed(e.to_string()))?,
+        coupler: gas
+            .map(|g| g.save_state())
+            .transpose()
+            .map_err(|e| failed(e.to_string()))?,
+        sampling: sampling.clone(),
+    };
+    checkpoint::write(out_dir, &c)
+}
+
 fn progress_bar(total_steps: u64) -> indicatif::ProgressBar {
     let b = indicatif::ProgressBar::new(total_steps);
     b.set_style(
@@ -334,9 +549,16 @@ fn progress_bar(total_steps: u64) -> indicatif::ProgressBar {
     b
 }
 
-/// One plain progress line: simulated time, rate, ETA, grains in the tube, Δp.
-fn progress_line(time: Real, duration: Real, wall: f64, seen: &sampling::Seen) -> String {
-    let rate = time / wall.max(1e-9);
+/// One plain progress line: simulated time, rate (of this process, which began at
+/// simulated time `start`), ETA, grains in the tube, Δp.
+fn progress_line(
+    time: Real,
+    start: Real,
+    duration: Real,
+    wall: f64,
+    seen: &sampling::Seen,
+) -> String {
+    let rate = (time - start) / wall.max(1e-9);
     format!(
         "t = {time:.4}/{duration} s ({:.0} %), {rate:.3e} s simulated per wall second, ETA {}, \
          {} grains in tube{}",
@@ -387,6 +609,14 @@ fn clear_previous_outputs(dir: &Path) -> Result<(), RunError> {
         path: dir.display().to_string(),
         source,
     })?;
+    // An older run's checkpoints: this run is not that one.
+    let old_checkpoints = checkpoint::folder(dir);
+    if old_checkpoints.is_dir() {
+        std::fs::remove_dir_all(&old_checkpoints).map_err(|source| RunError::Io {
+            path: old_checkpoints.display().to_string(),
+            source,
+        })?;
+    }
     for entry in entries.flatten() {
         let name = entry.file_name();
         let name = name.to_string_lossy();

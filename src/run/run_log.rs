@@ -25,11 +25,18 @@ pub struct RunLog {
 }
 
 impl RunLog {
-    /// A new `log.plugflow` in `dir` (an older run's is replaced).
-    pub fn create(dir: &Path, progress: bool) -> Result<Self, OutputError> {
+    /// A new `log.plugflow` in `dir` (an older run's is replaced), or, for a resumed run
+    /// (`append`), the older run's log gone on.
+    pub fn create(dir: &Path, progress: bool, append: bool) -> Result<Self, OutputError> {
         let path = dir.join("log.plugflow");
         let shown = path.display().to_string();
-        let file = File::create(&path).map_err(|e| OutputError::new(&shown, e))?;
+        let file = std::fs::OpenOptions::new()
+            .create(true)
+            .write(true)
+            .append(append)
+            .truncate(!append)
+            .open(&path)
+            .map_err(|e| OutputError::new(&shown, e))?;
         Ok(Self {
             path: shown,
             file,

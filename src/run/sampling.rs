@@ -12,7 +12,8 @@ use crate::output::{GasSnapshot, OutputError, RunOutput, Sample};
 use crate::scene::Scene;
 use crate::{Real, Vec3};
 
-/// The run's measurements so far.
+/// The run's measurements so far (kept whole in a checkpoint).
+#[derive(Clone, serde::Serialize, serde::Deserialize)]
 pub struct Sampling {
     /// Means are taken from this time on, s.
     pub settle: Real,
@@ -38,7 +39,7 @@ pub struct Sampling {
 }
 
 /// What one sample saw, for the progress line.
-#[derive(Debug, Clone, Copy, Default)]
+#[derive(Debug, Clone, Copy, Default, serde::Serialize, serde::Deserialize)]
 pub struct Seen {
     pub in_tube: usize,
     pub pressure_drop: Option<Real>,

@@ -85,7 +85,7 @@ pub fn draw_radius(cfg: &DemConfig, rng: &mut Rng) -> Real {
 }
 
 /// The inlet's bookkeeping: grains owed, time blocked, next placement attempt.
-#[derive(Debug, Clone, Default)]
+#[derive(Debug, Clone, Default, serde::Serialize, serde::Deserialize)]
 pub struct Feeder {
     /// Grains the inlet owes (rate × time − fed).
     pub backlog: Real,

@@ -4,6 +4,7 @@
 //! moved half the skin (or grains were added/removed) → forces → half kick. Every few steps
 //! the inlet feeds a batch and grains past an open end leave. Each stage is timed.
 
+mod checkpoint;
 pub mod config;
 pub mod contact;
 pub mod external;
@@ -50,7 +51,7 @@ const MIN_GRAINS_PER_CHUNK: usize = 256;
 const FEED_STRIDE: u64 = 10;
 
 /// Counters of what entered and left the domain.
-#[derive(Debug, Clone, Default)]
+#[derive(Debug, Clone, Default, serde::Serialize, serde::Deserialize)]
 pub struct FlowCounters {
     /// Grains fed by the inlet.
     pub fed_count: u64,
@@ -863,6 +864,14 @@ impl DemBackend for NativeDem {
                 })
                 .collect(),
         )
+    }
+
+    fn save_state(&self) -> Result<Vec<u8>, BackendError> {
+        checkpoint::save(self)
+    }
+
+    fn restore_state(&mut self, state: &[u8]) -> Result<(), BackendError> {
+        checkpoint::restore(self, state)
     }
 
     fn flow(&self) -> Option<plugflow_coupling::GrainFlow> {

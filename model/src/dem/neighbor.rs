@@ -210,7 +210,64 @@ pub struct NeighborList {
     pub builds: u64,
 }
 
+/// What of a [`NeighborList`] a checkpoint keeps: the list, its histories and its
+/// reference positions (the rest is scratch that the next build fills).
+#[derive(Debug, Clone, serde::Serialize, serde::Deserialize)]
+pub struct NeighborKeep {
+    start: Vec<u32>,
+    partner: Vec<u32>,
+    history: Vec<Vec3>,
+    near_wall: Vec<Vec<u32>>,
+    cost: Vec<u64>,
+    x_at_build: Vec<Vec3>,
+    saved: Vec<((u64, u64), Vec3)>,
+    valid: bool,
+    builds: u64,
+}
+
 impl NeighborList {
+    /// The part a checkpoint keeps.
+    pub fn keep(&self) -> NeighborKeep {
+        NeighborKeep {
+            start: self.start.clone(),
+            partner: self.partner.clone(),
+            history: self.history.clone(),
+            near_wall: self.near_wall.clone(),
+            cost: self.cost.clone(),
+            x_at_build: self.x_at_build.clone(),
+            saved: self.saved.clone(),
+            valid: self.valid,
+            builds: self.builds,
+        }
+    }
+
+    /// Go on from a checkpoint's list, for `grains` grains; refused when it does not fit.
+    pub fn restore(&mut self, k: NeighborKeep, grains: usize) -> Result<(), String> {
+        let rows_fit = k.start.is_empty() || k.start.len() == grains + 1;
+        let pairs = k.start.last().map_or(0, |&e| e as usize);
+        if !rows_fit || k.partner.len() != pairs || k.history.len() != pairs {
+            return Err(format!(
+                "the neighbour list ({} rows, {} pairs, {} histories) does not fit {grains}                  grains",
+                k.start.len().saturating_sub(1),
+                k.partner.len(),
+                k.history.len()
+            ));
+        }
+        if k.partner.iter().any(|&j| j as usize >= grains) {
+            return Err("a neighbour index lies past the last grain".to_string());
+        }
+        self.start = k.start;
+        self.partner = k.partner;
+        self.history = k.history;
+        self.near_wall = k.near_wall;
+        self.cost = k.cost;
+        self.x_at_build = k.x_at_build;
+        self.saved = k.saved;
+        self.valid = k.valid;
+        self.builds = k.builds;
+        Ok(())
+    }
+
     /// Positions at the last build (empty before the first); a grain that has moved more
     /// than half the skin from here calls for a rebuild.
     pub fn reference_positions(&self) -> &[Vec3] {

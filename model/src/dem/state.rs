@@ -6,7 +6,7 @@ use crate::{Real, Vec3};
 
 /// All per-grain arrays; index `i` is the same grain in every array. The order changes when
 /// the neighbour list re-sorts grains for locality; `id` is the stable name.
-#[derive(Debug, Clone, Default)]
+#[derive(Debug, Clone, Default, serde::Serialize, serde::Deserialize)]
 pub struct ParticleState {
     /// Stable identifiers.
     pub id: Vec<u64>,

@@ -51,6 +51,28 @@ pub(super) fn check(f: &SceneFile) -> Result<(), SceneError> {
     if f.output.sample_interval.si <= 0.0 {
         return Err(field_err("output.sample_interval", "must be positive"));
     }
+    if let Some(c) = f.output.checkpoint_interval {
+        if c.si < f.output.sample_interval.si {
+            return Err(field_err(
+                "output.checkpoint_interval",
+                format!(
+                    "{} s is shorter than `output.sample_interval` ({} s): checkpoints are \
+                     taken at samples",
+                    c.si, f.output.sample_interval.si
+                ),
+            ));
+        }
+        if f.dem.engine != "native" {
+            return Err(field_err(
+                "output.checkpoint_interval",
+                format!(
+                    "the `{}` engine cannot write checkpoints yet (only the built-in \
+                     `native` engine can); drop the field or run on `native`",
+                    f.dem.engine
+                ),
+            ));
+        }
+    }
     check_gas(f)?;
     check_output(f)
 }

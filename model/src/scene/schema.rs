@@ -437,6 +437,11 @@ pub struct OutputSpec {
     /// summary's `pressure_taps`. Needs a gas.
     #[serde(default)]
     pub pressure_taps: Vec<PressureTapSpec>,
+    /// Simulated time between checkpoints, s (rounded to whole samples; the last two are
+    /// kept in `checkpoints/`, and one is written at the run's end or stop): `plugflow run
+    /// --resume DIR` goes on from the latest, bit for bit as if never stopped. None: no
+    /// checkpoints (the built-in engine only).
+    pub checkpoint_interval: Option<Q<Time>>,
 }
 
 /// A differential pressure transducer between two positions along the tube axis.
@@ -473,6 +478,7 @@ impl Default for OutputSpec {
             snapshots: None,
             profiles: None,
             pressure_taps: Vec::new(),
+            checkpoint_interval: None,
         }
     }
 }

@@ -7,6 +7,26 @@ use super::*;
 pub(super) const STEP_ITERATIONS: usize = 200;
 pub(super) const STEP_TOLERANCE: Real = 1e-7;
 
+/// What a SIMPLE tube gas carries from step to step (a checkpoint; stencils, patterns
+/// and the factorisation's structure come from the geometry again, to the same bits).
+#[derive(serde::Serialize, serde::Deserialize)]
+struct SimpleState {
+    nodes: usize,
+    cells: usize,
+    vel: [Vec<Real>; 3],
+    p: Vec<Real>,
+    porosity: Vec<Real>,
+    rho: Vec<Real>,
+    prev_mass: Option<Vec<Real>>,
+    fed_solid: Vec<Real>,
+    grain_velocity: Vec<[Real; 3]>,
+    inlet_velocity: Real,
+    phi: Vec<Real>,
+    node_p: Vec<Real>,
+    steps: u64,
+    last_iterations: usize,
+}
+
 /// The SIMPLE gas behind the `GasSolver` trait on a tube grid: the 2D channel of seed 004
 /// when the grid has one node across e1 (node (k, 0, j) is cell (k, 0, j)), the cut-cell
 /// 3D tube otherwise.
@@ -262,6 +282,73 @@ impl GasSolver for SimpleTubeGas {
 
     /// One step of dt against two of dt/2 from the same state (the state restored after):
     /// max |Δp| over max |p|.
+    fn save_state(&self) -> Result<Vec<u8>, GasError> {
+        let g = &self.gas;
+        let state = SimpleState {
+            nodes: self.grid.len(),
+            cells: g.geometry.cells(),
+            vel: g.vel.clone(),
+            p: g.p.clone(),
+            porosity: g.porosity.clone(),
+            rho: g.rho.clone(),
+            prev_mass: g.prev_mass.clone(),
+            fed_solid: g.fed_solid.clone(),
+            grain_velocity: g.grain_velocity.clone(),
+            inlet_velocity: g.params.inlet_velocity,
+            phi: self.phi.clone(),
+            node_p: self.p.clone(),
+            steps: self.steps,
+            last_iterations: self.last_iterations,
+        };
+        bincode::serialize(&state).map_err(|e| GasError::State {
+            reason: format!("cannot encode the SIMPLE gas: {e}"),
+        })
+    }
+
+    fn restore_state(&mut self, bytes: &[u8]) -> Result<(), GasError> {
+        let s: SimpleState = bincode::deserialize(bytes).map_err(|e| GasError::State {
+            reason: format!("not a SIMPLE gas state: {e}"),
+        })?;
+        let g = &mut self.gas;
+        let (nodes, cells) = (self.grid.len(), g.geometry.cells());
+        let faces_fit = (0..3).all(|d| s.vel[d].len() == g.vel[d].len());
+        if s.nodes != nodes
+            || s.cells != cells
+            || !faces_fit
+            || [
+                s.p.len(),
+                s.porosity.len(),
+                s.rho.len(),
+                s.grain_velocity.len(),
+            ]
+            .iter()
+            .any(|&l| l != cells)
+            || s.phi.len() != nodes
+            || s.node_p.len() != nodes
+        {
+            return Err(GasError::State {
+                reason: format!(
+                    "written for a grid of {} nodes and {} cells, the scene's has {nodes} and \
+                     {cells}",
+                    s.nodes, s.cells
+                ),
+            });
+        }
+        g.vel = s.vel;
+        g.p = s.p;
+        g.porosity = s.porosity;
+        g.rho = s.rho;
+        g.prev_mass = s.prev_mass;
+        g.fed_solid = s.fed_solid;
+        g.grain_velocity = s.grain_velocity;
+        g.params.inlet_velocity = s.inlet_velocity;
+        self.phi = s.phi;
+        self.p = s.node_p;
+        self.steps = s.steps;
+        self.last_iterations = s.last_iterations;
+        Ok(())
+    }
+
     fn step_doubling_error(
         &mut self,
         fields: &GranularFields,

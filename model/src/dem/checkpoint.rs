@@ -1,0 +1,150 @@
+//! The built-in engine's checkpoint: everything [`NativeDem`] carries from one `advance`
+//! call to the next, as exact bits (bincode keeps every f64 as stored). Restored into an
+//! engine built from the same scene, the next steps are bit for bit those of the engine
+//! that never stopped: the grains keep their order, the neighbour list its pairs and
+//! shear histories, the threads their chunks, the inlet its RNG and backlog. Scratch
+//! (contact lists, predicted velocities, the sort's buffers) is filled again by the next
+//! step before anything reads it.
+
+use plugflow_coupling::{BackendError, StageTimer};
+
+use super::neighbor::NeighborKeep;
+use super::state::ParticleState;
+use super::{cut_by_cost, FlowCounters, NativeDem, MIN_GRAINS_PER_CHUNK};
+use crate::dem::inlet::Feeder;
+use crate::rng::Rng;
+use crate::{Real, Vec3};
+
+/// Bumped whenever [`Saved`] changes: an older checkpoint is refused, not misread.
+const FORMAT: u32 = 1;
+
+#[derive(serde::Serialize, serde::Deserialize)]
+struct Saved {
+    format: u32,
+    walls: usize,
+    threads: usize,
+    time: Real,
+    step: u64,
+    next_id: u64,
+    rng: Rng,
+    rebuild_pending: bool,
+    feeder: Feeder,
+    flow: FlowCounters,
+    wall_force: Vec<Vec3>,
+    /// The pair constants were dropped (a grain unlike the scene's was inserted).
+    mixed_grains: bool,
+    bounds: Vec<usize>,
+    may_leave: Vec<u32>,
+    state: ParticleState,
+    nlist: NeighborKeep,
+    timer: Vec<(String, f64)>,
+}
+
+fn refused(message: String) -> BackendError {
+    BackendError::Engine {
+        engine: "native".to_string(),
+        message: format!("checkpoint refused: {message}"),
+    }
+}
+
+/// The engine's state as bytes.
+pub(super) fn save(dem: &NativeDem) -> Result<Vec<u8>, BackendError> {
+    let saved = Saved {
+        format: FORMAT,
+        walls: dem.cfg.walls.len(),
+        threads: dem.cfg.threads,
+        time: dem.time,
+        step: dem.step,
+        next_id: dem.next_id,
+        rng: dem.rng.clone(),
+        rebuild_pending: dem.rebuild_pending,
+        feeder: dem.feeder.clone(),
+        flow: dem.flow.clone(),
+        wall_force: dem.wall_force.clone(),
+        mixed_grains: dem.uniform.is_none(),
+        bounds: dem.bounds.clone(),
+        may_leave: dem.may_leave.clone(),
+        state: dem.state.clone(),
+        nlist: dem.nlist.keep(),
+        timer: dem.timer.entries(),
+    };
+    bincode::serialize(&saved).map_err(|e| refused(format!("cannot encode the grains: {e}")))
+}
+
+/// Go on from `bytes` ([`save`]'s) in an engine built from the same scene.
+pub(super) fn restore(dem: &mut NativeDem, bytes: &[u8]) -> Result<(), BackendError> {
+    let s: Saved = bincode::deserialize(bytes)
+        .map_err(|e| refused(format!("the engine's part cannot be read: {e}")))?;
+    if s.format != FORMAT {
+        return Err(refused(format!(
+            "written in the engine's format {}, this build reads format {FORMAT}",
+            s.format
+        )));
+    }
+    let nw = dem.cfg.walls.len();
+    if s.walls != nw || s.wall_force.len() != nw {
+        return Err(refused(format!(
+            "written for {} walls, the scene has {nw}",
+            s.walls
+        )));
+    }
+    let n = s.state.id.len();
+    let st = &s.state;
+    let columns = [
+        st.position.len(),
+        st.velocity.len(),
+        st.angular_velocity.len(),
+        st.force.len(),
+        st.torque.len(),
+        st.external_force.len(),
+        st.radius.len(),
+        st.mass.len(),
+        st.inv_mass.len(),
+        st.inv_inertia.len(),
+    ];
+    if columns.iter().any(|&c| c != n) || st.wall_history.len() != n * nw {
+        return Err(refused(format!(
+            "the grain columns do not all hold {n} grains"
+        )));
+    }
+    dem.nlist.restore(s.nlist, n).map_err(refused)?;
+    if s.may_leave.iter().any(|&i| i as usize >= n) || s.bounds.last().is_some_and(|&b| b > n) {
+        return Err(refused(
+            "a grain index lies past the last grain".to_string(),
+        ));
+    }
+    dem.time = s.time;
+    dem.step = s.step;
+    dem.next_id = s.next_id;
+    dem.rng = s.rng;
+    dem.rebuild_pending = s.rebuild_pending;
+    dem.feeder = s.feeder;
+    dem.flow = s.flow;
+    dem.wall_force = s.wall_force;
+    if s.mixed_grains {
+        dem.uniform = None;
+    }
+    dem.may_leave = s.may_leave;
+    dem.state = s.state;
+    // Scratch the integration pass writes before any read, sized as a build sizes it.
+    dem.velocity_pred = vec![[0.0; 3]; n];
+    dem.angular_velocity_pred = vec![[0.0; 3]; n];
+    dem.timer = StageTimer::from_entries(&s.timer);
+    // The threads' chunks: as saved for the same thread count (bit for bit); cut again
+    // by the list's costs for another (the same physics, another summation order).
+    let cost = dem.nlist.cost.len();
+    if s.threads == dem.cfg.threads {
+        dem.bounds = s.bounds;
+    } else if cost == n && n > 0 {
+        let chunks = dem.cfg.threads.min((n / MIN_GRAINS_PER_CHUNK).max(1));
+        if chunks > 1 {
+            cut_by_cost(&dem.nlist.cost, chunks, &mut dem.bounds);
+        } else {
+            dem.bounds = vec![0, n];
+        }
+    } else {
+        dem.bounds.clear();
+        dem.rebuild_pending = true;
+    }
+    Ok(())
+}

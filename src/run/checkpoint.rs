@@ -1,0 +1,267 @@
+//! Checkpoints: the whole run between two samples in one file, so that `plugflow run
+//! --resume DIR` goes on bit for bit as if it had never stopped (built-in engine, same
+//! thread count). A checkpoint holds the engine's state (its own bytes, see
+//! `DemBackend::save_state`), the coupler's and the gas's, the analysis accumulators
+//! (`Sampling`), the step and sample counters and the snapshot times; the outputs written
+//! so far stay in the folder and are cut back to the checkpoint on resume.
+//!
+//! File: `checkpoints/checkpoint_<step>.pfc` =
+//! `MAGIC (8 bytes) | format (u32 LE) | payload length (u64 LE) | FNV-1a 64 of the payload
+//! (u64 LE) | payload (bincode)`. Written to a temporary name, synced, then renamed: a
+//! run killed while writing leaves the previous checkpoint whole. The last two are kept.
+
+use std::io::Write;
+use std::path::{Path, PathBuf};
+
+use plugflow_coupling::CouplerState;
+
+use super::sampling::Sampling;
+use super::RunError;
+use crate::scene::Scene;
+use crate::Real;
+
+const MAGIC: &[u8; 8] = b"PLUGFCK\n";
+/// Bumped whenever [`Checkpoint`] or an engine's part changes meaning.
+pub const FORMAT: u32 = 1;
+/// Checkpoints kept in `checkpoints/` (older ones are removed).
+const KEPT: usize = 2;
+const HEADER: usize = 8 + 4 + 8 + 8;
+
+/// The run at one sample.
+#[derive(serde::Serialize, serde::Deserialize)]
+pub struct Checkpoint {
+    /// plugflow's version that wrote it (for the message when a format differs).
+    pub plugflow_version: String,
+    /// The scene as it matters for the physics and the measurements: its text without the
+    /// fields a resumed run may change (see [`scene_identity`]).
+    pub scene_identity: String,
+    pub engine: String,
+    pub threads: usize,
+    /// Simulated time and DEM steps at the checkpoint.
+    pub time: Real,
+    pub steps_done: u64,
+    pub samples_taken: u64,
+    /// The times of the snapshots written so far, s.
+    pub snapshot_times: Vec<Real>,
+    /// Wall time of the run up to the checkpoint, s (a resumed run's summary adds it).
+    pub wall_time_s: f64,
+    pub dem: Vec<u8>,
+    pub coupler: Option<CouplerState>,
+    pub sampling: Sampling,
+}
+
+/// Why a checkpoint cannot be used.
+#[derive(Debug, thiserror::Error)]
+#[error("checkpoint `{path}` refused: {reason}")]
+pub struct CheckpointError {
+    pub path: String,
+    pub reason: String,
+}
+
+fn refuse(path: &Path, reason: impl Into<String>) -> CheckpointError {
+    CheckpointError {
+        path: path.display().to_string(),
+        reason: reason.into(),
+    }
+}
+
+/// FNV-1a, 64 bits: enough to tell a truncated or damaged file from a whole one.
+fn checksum(bytes: &[u8]) -> u64 {
+    bytes.iter().fold(0xcbf2_9ce4_8422_2325, |h, &b| {
+        (h ^ b as u64).wrapping_mul(0x0000_0100_0000_01b3)
+    })
+}
+
+/// The folder of a run's checkpoints.
+pub fn folder(out_dir: &Path) -> PathBuf {
+    out_dir.join("checkpoints")
+}
+
+/// Write `c` atomically into `out_dir/checkpoints/`, keeping the last [`KEPT`].
+pub fn write(out_dir: &Path, c: &Checkpoint) -> Result<PathBuf, RunError> {
+    let dir = folder(out_dir);
+    let io = |path: &Path| {
+        let path = path.display().to_string();
+        move |source| RunError::Io { path, source }
+    };
+    std::fs::create_dir_all(&dir).map_err(io(&dir))?;
+    let payload = bincode::serialize(c).map_err(|e| RunError::Io {
+        path: dir.display().to_string(),
+        source: std::io::Error::other(format!("cannot encode the checkpoint: {e}")),
+    })?;
+    let path = dir.join(format!("checkpoint_{:012}.pfc", c.steps_done));
+    let tmp = dir.join(format!(".checkpoint_{:012}.pfc.part", c.steps_done));
+    {
+        let mut f = std::fs::File::create(&tmp).map_err(io(&tmp))?;
+        f.write_all(MAGIC)
+            .and_then(|_| f.write_all(&FORMAT.to_le_bytes()))
+            .and_then(|_| f.write_all(&(payload.len() as u64).to_le_bytes()))
+            .and_then(|_| f.write_all(&checksum(&payload).to_le_bytes()))
+            .and_then(|_| f.write_all(&payload))
+            .and_then(|_| f.sync_all())
+            .map_err(io(&tmp))?;
+    }
+    std::fs::rename(&tmp, &path).map_err(io(&path))?;
+    let mut all = list(&dir);
+    while all.len() > KEPT {
+        let old = all.remove(0);
+        std::fs::remove_file(&old).map_err(io(&old))?;
+    }
+    Ok(path)
+}
+
+/// The checkpoints in `dir`, oldest first.
+fn list(dir: &Path) -> Vec<PathBuf> {
+    let mut v: Vec<PathBuf> = std::fs::read_dir(dir)
+        .map(|entries| {
+            entries
+                .flatten()
+                .map(|e| e.path())
+                .filter(|p| {
+                    p.file_name()
+                        .and_then(|n| n.to_str())
+                        .is_some_and(|n| n.starts_with("checkpoint_") && n.ends_with(".pfc"))
+                })
+                .collect()
+        })
+        .unwrap_or_default();
+    v.sort();
+    v
+}
+
+/// The checkpoint `--resume` names: a `.pfc` file, or the latest in a run folder (or in
+/// its `checkpoints/`).
+pub fn locate(arg: &Path) -> Result<PathBuf, CheckpointError> {
+    if arg.is_file() {
+        return Ok(arg.to_path_buf());
+    }
+    let dir = if folder(arg).is_dir() {
+        folder(arg)
+    } else {
+        arg.to_path_buf()
+    };
+    list(&dir).pop().ok_or_else(|| {
+        refuse(
+            arg,
+            "no checkpoint there (a run writes them into `checkpoints/` when the scene sets \
+             `output.checkpoint_interval`)",
+        )
+    })
+}
+
+/// Read and check a checkpoint file for `scene`.
+pub fn read(path: &Path, scene: &Scene) -> Result<Checkpoint, CheckpointError> {
+    let bytes = std::fs::read(path).map_err(|e| refuse(path, format!("cannot read it: {e}")))?;
+    if bytes.len() < HEADER || &bytes[..8] != MAGIC {
+        return Err(refuse(path, "not a plugflow checkpoint (no header)"));
+    }
+    let word = |k: usize| u64::from_le_bytes(bytes[k..k + 8].try_into().expect("8 bytes"));
+    let format = u32::from_le_bytes(bytes[8..12].try_into().expect("4 bytes"));
+    if format != FORMAT {
+        return Err(refuse(
+            path,
+            format!(
+                "written in checkpoint format {format}; this plugflow ({}) reads format \
+                 {FORMAT}",
+                env!("CARGO_PKG_VERSION")
+            ),
+        ));
+    }
+    let (len, sum) = (word(12), word(20));
+    let payload = &bytes[HEADER..];
+    if payload.len() as u64 != len {
+        return Err(refuse(
+            path,
+            format!(
+                "truncated: {} of {len} bytes after the header",
+                payload.len()
+            ),
+        ));
+    }
+    if checksum(payload) != sum {
+        return Err(refuse(path, "damaged: its checksum does not match"));
+    }
+    let c: Checkpoint = bincode::deserialize(payload)
+        .map_err(|e| refuse(path, format!("cannot be decoded: {e}")))?;
+    let here = scene_identity(scene);
+    if c.scene_identity != here {
+        return Err(refuse(
+            path,
+            format!(
+                "written for another scene: {}",
+                first_difference(&c.scene_identity, &here)
+            ),
+        ));
+    }
+    let engine = &scene.file.dem.engine;
+    if &c.engine != engine {
+        return Err(refuse(
+            path,
+            format!(
+                "written by engine `{}`, the scene runs `{engine}`",
+                c.engine
+            ),
+        ));
+    }
+    Ok(c)
+}
+
+/// Fields a resumed run may set differently from the run that wrote the checkpoint: how
+/// long it runs, how often it checkpoints, and its threads (another thread count goes on
+/// with the same physics, not the same bits).
+const MAY_CHANGE: [(&str, &str); 3] = [
+    ("", "duration"),
+    ("output", "checkpoint_interval"),
+    ("dem", "threads"),
+];
+
+/// The scene's text (after overrides) without the fields of [`MAY_CHANGE`].
+pub fn scene_identity(scene: &Scene) -> String {
+    let mut table: toml::Table = toml::from_str(&scene.text).unwrap_or_default();
+    for (section, key) in MAY_CHANGE {
+        if section.is_empty() {
+            table.remove(key);
+        } else if let Some(toml::Value::Table(t)) = table.get_mut(section) {
+            t.remove(key);
+        }
+    }
+    toml::to_string(&table).unwrap_or_default()
+}
+
+/// The first field whose value differs between two scene identities, said for a user.
+fn first_difference(then: &str, now: &str) -> String {
+    let flat = |text: &str| {
+        let mut out = Vec::new();
+        let table: toml::Table = toml::from_str(text).unwrap_or_default();
+        flatten("", &toml::Value::Table(table), &mut out);
+        out
+    };
+    let (a, b) = (flat(then), flat(now));
+    for (k, v) in &a {
+        match b.iter().find(|(k2, _)| k2 == k) {
+            None => return format!("`{k}` = {v} there, not set here"),
+            Some((_, w)) if w != v => return format!("`{k}` = {v} there, {w} here"),
+            _ => {}
+        }
+    }
+    match b.iter().find(|(k, _)| !a.iter().any(|(k2, _)| k2 == k)) {
+        Some((k, w)) => format!("`{k}` not set there, {w} here"),
+        None => "the scenes differ".to_string(),
+    }
+}
+
+fn flatten(prefix: &str, v: &toml::Value, out: &mut Vec<(String, String)>) {
+    match v {
+        toml::Value::Table(t) => {
+            for (k, v) in t {
+                let key = if prefix.is_empty() {
+                    k.clone()
+                } else {
+                    format!("{prefix}.{k}")
+                };
+                flatten(&key, v, out);
+            }
+        }
+        other => out.push((prefix.to_string(), other.to_string())),
+    }
+}

@@ -1,0 +1,308 @@
+//! Checkpoints and `plugflow run --resume` (issue 23, item 1): a run resumed from a
+//! checkpoint is bit for bit the uninterrupted run (built-in engine, fixed threads) —
+//! `summary.json` (all but wall times) and every dataset of `run.h5` — whether the first
+//! part ended normally or was killed with SIGKILL between checkpoints; and a checkpoint of
+//! another scene, a truncated one and one of another format are refused, naming why.
+
+mod common;
+use common::{plugflow, read_summary};
+use std::path::{Path, PathBuf};
+
+const INTERVAL: &str = "output.checkpoint_interval=0.05 s";
+/// Snapshots in both formats every 0.05 s, so the resumed run must also cut back and go on
+/// with the snapshot groups of `run.h5` and the `.pvd` series.
+const SNAPSHOTS: &str = r#"output.snapshots={interval="0.05 s", formats=["hdf5","vtk"]}"#;
+/// The plug statistics and means start at once, so the accumulators are exercised.
+const SETTLE: &str = "output.settling_time=0.02 s";
+
+fn case(name: &str) -> String {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("cases")
+        .join(name)
+        .display()
+        .to_string()
+}
+
+fn fresh(tag: &str) -> PathBuf {
+    let out = std::env::temp_dir().join(format!("plugflow_resume_{tag}_{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&out);
+    out
+}
+
+/// `plugflow run SCENE --out OUT --quiet --duration D --set …` plus `extra`.
+fn run(scene: &str, out: &Path, duration: &str, sets: &[&str], extra: &[&str]) -> (i32, String) {
+    let mut args = vec![
+        "run",
+        scene,
+        "--out",
+        out.to_str().unwrap(),
+        "--quiet",
+        "--duration",
+        duration,
+    ];
+    for s in sets {
+        args.extend(["--set", s]);
+    }
+    args.extend_from_slice(extra);
+    plugflow(&args)
+}
+
+/// The summary without what depends on the wall clock.
+fn physics(out: &Path) -> serde_json::Value {
+    let mut s = read_summary(out);
+    let m = s.as_object_mut().unwrap();
+    for key in WALL_CLOCK {
+        m.remove(key);
+    }
+    s
+}
+
+/// Summary keys measured by the wall clock (the only ones a resumed run may change).
+const WALL_CLOCK: [&str; 2] = ["wall_time_s", "stage_times_s"];
+
+/// Every dataset of `run.h5` (path → raw bits), attributes of the snapshot groups too.
+fn h5_bits(path: &Path) -> Vec<(String, Vec<u64>)> {
+    fn walk(g: &hdf5::Group, prefix: &str, out: &mut Vec<(String, Vec<u64>)>) {
+        let mut names = g.member_names().unwrap();
+        names.sort();
+        for n in names {
+            let p = format!("{prefix}/{n}");
+            if let Ok(sub) = g.group(&n) {
+                for a in ["time", "step"] {
+                    if let Ok(attr) = sub.attr(a) {
+                        let v: f64 = attr.read_scalar().unwrap();
+                        out.push((format!("{p}@{a}"), vec![v.to_bits()]));
+                    }
+                }
+                walk(&sub, &p, out);
+            } else {
+                let d = g.dataset(&n).unwrap();
+                let bits = match d.read_raw::<f64>() {
+                    Ok(v) => v.iter().map(|x| x.to_bits()).collect(),
+                    Err(_) => d.read_raw::<u64>().unwrap(),
+                };
+                out.push((p, bits));
+            }
+        }
+    }
+    let f = hdf5::File::open(path).unwrap();
+    let mut out = Vec::new();
+    walk(&f, "", &mut out);
+    out
+}
+
+/// The checkpoint files of a run folder, oldest first.
+fn checkpoints(out: &Path) -> Vec<PathBuf> {
+    let mut v: Vec<PathBuf> = std::fs::read_dir(out.join("checkpoints"))
+        .map(|d| {
+            d.flatten()
+                .map(|e| e.path())
+                .filter(|p| p.extension().is_some_and(|e| e == "pfc"))
+                .collect()
+        })
+        .unwrap_or_default();
+    v.sort();
+    v
+}
+
+fn assert_same_run(straight: &Path, resumed: &Path, what: &str) {
+    assert_eq!(
+        physics(straight),
+        physics(resumed),
+        "{what}: summaries differ"
+    );
+    let (a, b) = (
+        h5_bits(&straight.join("run.h5")),
+        h5_bits(&resumed.join("run.h5")),
+    );
+    let names = |v: &[(String, Vec<u64>)]| v.iter().map(|(n, _)| n.clone()).collect::<Vec<_>>();
+    assert_eq!(names(&a), names(&b), "{what}: run.h5 layouts differ");
+    for ((name, x), (_, y)) in a.iter().zip(&b) {
+        assert!(
+            x == y,
+            "{what}: run.h5 `{name}` differs ({} vs {} values)",
+            x.len(),
+            y.len()
+        );
+    }
+    let text = |d: &Path, f: &str| std::fs::read_to_string(d.join(f)).unwrap();
+    for f in ["timeseries.csv", "particles.pvd", "gas.pvd"] {
+        assert_eq!(text(straight, f), text(resumed, f), "{what}: {f} differs");
+    }
+    for k in 0..4 {
+        let f = format!("particles_{k:06}.vtp");
+        assert!(
+            std::fs::read(straight.join(&f)).unwrap() == std::fs::read(resumed.join(&f)).unwrap(),
+            "{what}: {f} differs"
+        );
+    }
+}
+
+/// The coupled vertical case (d'Arcy gas, inlet, two threads) for 0.2 s: straight; 0.1 s
+/// then resumed to 0.2 s; and killed (SIGKILL) after its first checkpoint, then resumed.
+#[test]
+fn a_resumed_run_is_the_uninterrupted_run_bit_for_bit() {
+    let scene = case("vertical_plug.toml");
+    let sets = [INTERVAL, SNAPSHOTS, SETTLE];
+    let straight = fresh("straight");
+    let (code, text) = run(&scene, &straight, "0.2", &sets, &[]);
+    assert_eq!(code, 0, "{text}");
+
+    // Stopped at its end (0.1 s), then taken on to 0.2 s in the same folder.
+    let parts = fresh("parts");
+    let (code, text) = run(&scene, &parts, "0.1", &sets, &[]);
+    assert_eq!(code, 0, "{text}");
+    let resume = ["--resume", parts.to_str().unwrap()];
+    let (code, text) = run(&scene, &parts, "0.2", &sets, &resume);
+    assert_eq!(code, 0, "{text}");
+    assert_same_run(&straight, &parts, "0.1 s + resumed 0.1 s");
+    let log = std::fs::read_to_string(parts.join("log.plugflow")).unwrap();
+    assert!(log.contains("resumed from"), "{log}");
+
+    // Killed between checkpoints: the outputs hold samples past the checkpoint, which the
+    // resumed run cuts off.
+    let killed = fresh("killed");
+    let mut child = std::process::Command::new(env!("CARGO_BIN_EXE_plugflow"))
+        .args(["run", &scene, "--out", killed.to_str().unwrap(), "--quiet"])
+        .args(["--duration", "0.2"])
+        .args(sets.iter().flat_map(|s| ["--set", s]))
+        .stderr(std::process::Stdio::null())
+        .spawn()
+        .unwrap();
+    let started = std::time::Instant::now();
+    while checkpoints(&killed).is_empty() {
+        assert!(child.try_wait().unwrap().is_none(), "the run ended early");
+        assert!(
+            started.elapsed().as_secs() < 300,
+            "no checkpoint after 300 s"
+        );
+        std::thread::sleep(std::time::Duration::from_millis(5));
+    }
+    // (Past the first sample after it: the outputs then hold more than the checkpoint.)
+    let csv = killed.join("timeseries.csv");
+    while std::fs::read_to_string(&csv).unwrap().lines().count() < 7 {
+        std::thread::sleep(std::time::Duration::from_millis(5));
+    }
+    child.kill().unwrap(); // SIGKILL
+    child.wait().unwrap();
+    assert!(
+        !killed.join("summary.json").exists(),
+        "the run was not killed part-way"
+    );
+    let resume = ["--resume", killed.to_str().unwrap()];
+    let (code, text) = run(&scene, &killed, "0.2", &sets, &resume);
+    assert_eq!(code, 0, "{text}");
+    assert_same_run(
+        &straight,
+        &killed,
+        "killed after its first checkpoint, resumed",
+    );
+
+    // The last two checkpoints are kept: 0.15 s and the end's 0.2 s (named by step).
+    let steps = read_summary(&straight)["steps"].as_u64().unwrap();
+    let kept = checkpoints(&straight);
+    let names: Vec<String> = kept
+        .iter()
+        .map(|p| p.file_name().unwrap().to_string_lossy().into_owned())
+        .collect();
+    assert_eq!(
+        names,
+        [
+            format!("checkpoint_{:012}.pfc", steps / 4 * 3),
+            format!("checkpoint_{steps:012}.pfc")
+        ]
+    );
+    for d in [straight, parts, killed] {
+        std::fs::remove_dir_all(d).ok();
+    }
+}
+
+/// The SIMPLE gas (its velocities, densities and mass memory) resumes to the same bits.
+#[test]
+fn a_resumed_simple_gas_run_is_the_uninterrupted_run_bit_for_bit() {
+    let scene = case("vertical_plug_simple.toml");
+    let sets = [INTERVAL, SNAPSHOTS, SETTLE, "dem.threads=1"];
+    let straight = fresh("simple_straight");
+    let (code, text) = run(&scene, &straight, "0.2", &sets, &[]);
+    assert_eq!(code, 0, "{text}");
+    let parts = fresh("simple_parts");
+    let (code, text) = run(&scene, &parts, "0.1", &sets, &[]);
+    assert_eq!(code, 0, "{text}");
+    let resume = ["--resume", parts.to_str().unwrap()];
+    let (code, text) = run(&scene, &parts, "0.2", &sets, &resume);
+    assert_eq!(code, 0, "{text}");
+    assert_same_run(&straight, &parts, "SIMPLE gas, 0.1 s + resumed 0.1 s");
+    for d in [straight, parts] {
+        std::fs::remove_dir_all(d).ok();
+    }
+}
+
+/// What cannot be resumed is refused (exit 2) with the reason: another scene (naming the
+/// field that differs), a truncated file, another format, no checkpoint at all.
+#[test]
+fn checkpoints_that_do_not_fit_are_refused_naming_why() {
+    let scene = case("vertical_plug.toml");
+    let out = fresh("refusals");
+    let (code, text) = run(
+        &scene,
+        &out,
+        "0.02",
+        &["output.checkpoint_interval=0.01 s"],
+        &[],
+    );
+    assert_eq!(code, 0, "{text}");
+    let latest = checkpoints(&out).pop().expect("a checkpoint at the end");
+    let resume_from = |file: &Path, sets: &[&str]| {
+        let mut all = vec!["output.checkpoint_interval=0.01 s"];
+        all.extend_from_slice(sets);
+        let again = fresh("refusals_again");
+        let r = run(
+            &scene,
+            &again,
+            "0.04",
+            &all,
+            &["--resume", file.to_str().unwrap()],
+        );
+        std::fs::remove_dir_all(again).ok();
+        r
+    };
+    let (code, text) = resume_from(&out, &["particles.density=950 kg/m^3"]);
+    assert_eq!(code, 2, "{text}");
+    assert!(
+        text.contains("another scene") && text.contains("particles.density"),
+        "{text}"
+    );
+
+    let bytes = std::fs::read(&latest).unwrap();
+    let cut = out.join("cut.pfc");
+    std::fs::write(&cut, &bytes[..bytes.len() / 2]).unwrap();
+    let (code, text) = resume_from(&cut, &[]);
+    assert_eq!(code, 2, "{text}");
+    assert!(text.contains("truncated"), "{text}");
+
+    let mut other = bytes.clone();
+    other[8..12].copy_from_slice(&99u32.to_le_bytes());
+    let old = out.join("other_format.pfc");
+    std::fs::write(&old, &other).unwrap();
+    let (code, text) = resume_from(&old, &[]);
+    assert_eq!(code, 2, "{text}");
+    assert!(text.contains("format 99"), "{text}");
+
+    let mut damaged = bytes;
+    let k = damaged.len() - 10;
+    damaged[k] ^= 0xff;
+    let bad = out.join("damaged.pfc");
+    std::fs::write(&bad, &damaged).unwrap();
+    let (code, text) = resume_from(&bad, &[]);
+    assert_eq!(code, 2, "{text}");
+    assert!(text.contains("checksum"), "{text}");
+
+    let empty = fresh("refusals_empty");
+    std::fs::create_dir_all(&empty).unwrap();
+    let (code, text) = resume_from(&empty, &[]);
+    assert_eq!(code, 2, "{text}");
+    assert!(text.contains("no checkpoint there"), "{text}");
+    for d in [out, empty] {
+        std::fs::remove_dir_all(d).ok();
+    }
+}
