@@ -9,7 +9,9 @@
 #           OpenMPI (reference engine), YADE with Python 3.11's headers (the YADE shim embeds
 #           Debian's Python to drive it; ~770 MB), procps (pgrep/kill in the isolation
 #           test), and for Debian's own /usr/bin/python3 h5py (reads run.h5 back) and VTK's
-#           Python readers (read the ParaView files back). Debian's packages, not pip: a plain
+#           Python readers (read the ParaView files back), and ParaView's Python (its XDMF
+#           reader opens run.xdmf under pvbatch; ParaView itself comes with liggghts, its
+#           Python adds ~8 s). Debian's packages, not pip: a plain
 #           Debian 12 refuses pip into the system Python (PEP 668).
 set -euo pipefail
 # The oldest Rust that builds plugflow: Cargo.toml's rust-version (its dependencies need it).
@@ -17,7 +19,7 @@ need_rust=$(sed -n 's/^rust-version = "\(.*\)"/\1/p' "$(dirname "$0")/../Cargo.t
 pkgs=(build-essential libhdf5-dev pkg-config)
 if [ "${1:-}" != "--base" ]; then
   pkgs+=(liggghts libliggghts-dev libopenmpi-dev yade python3-yade libpython3.11-dev procps
-    python3-h5py python3-vtk9)
+    python3-h5py python3-vtk9 python3-paraview)
 fi
 missing=()
 for p in "${pkgs[@]}"; do

@@ -7,6 +7,8 @@ bash scripts/setup-system.sh
 # above) and the ParaView files with VTK's readers (python3-vtk9), both in Debian's Python.
 export PLUGFLOW_REQUIRE_H5PY=1
 export PLUGFLOW_REQUIRE_PYTHON_VTK=1
+# ... and run.xdmf with ParaView's own XDMF reader (pvbatch, python3-paraview).
+export PLUGFLOW_REQUIRE_PARAVIEW=1
 export PLUGFLOW_PYTHON=/usr/bin/python3
 # The external engines' shims (GPL crates) build only with their features.
 features="plugflow-dem-liggghts/liggghts,plugflow-dem-yade/yade"

@@ -422,6 +422,7 @@ mod tests {
                 duration: None,
                 set: Vec::new(),
                 threads: 1,
+                from: None,
             },
             observables: vec![Number::PressureDrop],
             exact,

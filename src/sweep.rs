@@ -33,6 +33,9 @@ pub enum SweepError {
     /// A variant's scene is wrong (checked for every variant before any runs).
     #[error("variant {variant}: {source}")]
     Scene { variant: String, source: SceneError },
+    /// The checkpoint every variant should start from does not fit one (`--from`).
+    #[error("variant {variant}: {reason}")]
+    Start { variant: String, reason: String },
     /// Files.
     #[error("sweep output `{path}`: {reason}")]
     Io { path: String, reason: String },
@@ -112,6 +115,8 @@ pub struct SweepOptions {
     /// Threads per variant process (`dem.threads`); 1 by default so that `jobs` processes
     /// fill the cores without oversubscribing them.
     pub threads: usize,
+    /// Start every variant from this checkpoint (a filled tube; `plugflow run --from`).
+    pub from: Option<PathBuf>,
 }
 
 /// The value of `--set` for one (path, value): quoted unless it parses as TOML already.
@@ -160,12 +165,22 @@ pub fn run_variants(
         let label: Vec<String> = v.iter().map(|(p, x)| format!("{p}={x}")).collect();
         // Through the setup layer, as `plugflow validate`: the coupling checks and the
         // chosen engine's refusals too, not only the scene's own.
-        Scene::load(scene_path, &set)
-            .and_then(|s| crate::setup::validate(&s).map(drop))
+        let scene = Scene::load(scene_path, &set)
+            .and_then(|s| crate::setup::validate(&s).map(|_| s))
             .map_err(|source| SweepError::Scene {
                 variant: label.join(" "),
                 source,
             })?;
+        // The common start must fit every variant (its tube, grains, gas grid).
+        if let Some(from) = &opts.from {
+            use crate::run::checkpoint;
+            checkpoint::locate(from)
+                .and_then(|p| checkpoint::read(&p, &scene, checkpoint::Use::Start))
+                .map_err(|e| SweepError::Start {
+                    variant: label.join(" "),
+                    reason: e.to_string(),
+                })?;
+        }
         sets.push((set, label));
     }
     std::fs::create_dir_all(&opts.out_dir).map_err(|e| io(&opts.out_dir, &e))?;
@@ -186,13 +201,44 @@ pub fn run_variants(
         }
         while running.len() < opts.jobs.max(1) && next < sets.len() {
             let dir = opts.out_dir.join(format!("{next:03}"));
+            // What this variant runs, recorded beside it: a later sweep into this folder
+            // skips it when it finished, and resumes it from its checkpoint when stopped.
+            let mut args: Vec<String> = Vec::new();
+            if let Some(d) = opts.duration {
+                args.extend(["--duration".to_string(), d.to_string()]);
+            }
+            for s in &sets[next].0 {
+                args.extend(["--set".to_string(), s.clone()]);
+            }
+            if let Some(from) = &opts.from {
+                args.extend(["--from".to_string(), from.display().to_string()]);
+            }
+            let record = opts.out_dir.join(format!("{next:03}.variant"));
+            let same = std::fs::read_to_string(&record).is_ok_and(|r| r == args.join("\n"));
+            let finished = Summary::read(&dir.join("summary.json")).is_ok_and(|s| s.completed());
+            if same && finished {
+                eprintln!(
+                    "skip  {next:03}: {} (finished already)",
+                    sets[next].1.join(" ")
+                );
+                exit[next] = Some(0);
+                next += 1;
+                continue;
+            }
+            let resume = same && crate::run::checkpoint::locate(&dir).is_ok();
             // A summary left by an earlier sweep into this folder must not stand for this
             // variant: only the child started here may write the one read below.
             let stale = dir.join("summary.json");
             if stale.exists() {
                 std::fs::remove_file(&stale).map_err(|e| io(&stale, &e))?;
             }
-            let log = std::fs::File::create(opts.out_dir.join(format!("{next:03}.log")))
+            std::fs::write(&record, args.join("\n")).map_err(|e| io(&record, &e))?;
+            let log = std::fs::OpenOptions::new()
+                .create(true)
+                .write(true)
+                .append(resume)
+                .truncate(!resume)
+                .open(opts.out_dir.join(format!("{next:03}.log")))
                 .map_err(|e| io(&opts.out_dir, &e))?;
             let log2 = log.try_clone().map_err(|e| io(&opts.out_dir, &e))?;
             let mut cmd = Command::new(exe);
@@ -201,13 +247,16 @@ pub fn run_variants(
                 .arg("--out")
                 .arg(&dir)
                 .arg("--quiet");
-            if let Some(d) = opts.duration {
-                cmd.arg("--duration").arg(d.to_string());
+            if resume {
+                // (Its own checkpoint, not the common start: `--from` is left out.)
+                let own = args.iter().position(|a| a == "--from");
+                cmd.args(own.map_or(&args[..], |k| &args[..k]));
+                cmd.arg("--resume").arg(&dir);
+                eprintln!("resume {next:03}: {}", sets[next].1.join(" "));
+            } else {
+                cmd.args(&args);
+                eprintln!("start {next:03}: {}", sets[next].1.join(" "));
             }
-            for s in &sets[next].0 {
-                cmd.arg("--set").arg(s);
-            }
-            eprintln!("start {next:03}: {}", sets[next].1.join(" "));
             let child = cmd
                 .stdout(Stdio::from(log))
                 .stderr(Stdio::from(log2))

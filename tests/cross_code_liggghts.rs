@@ -31,7 +31,7 @@ fn shim() -> PathBuf {
 }
 
 /// `--set dem.engine=liggghts` runs a case on LIGGGHTS from the command line; the summary
-/// names the engine and its version.
+/// names the engine and its version, and LIGGGHTS's own log is kept in the run's folder.
 #[test]
 fn e_cli_runs_a_case_on_liggghts() {
     let _g = SERIAL.lock().unwrap_or_else(|p| p.into_inner());
@@ -62,6 +62,12 @@ fn e_cli_runs_a_case_on_liggghts() {
     // 0.3 s at 514 grains/s: about 150 grains fed, all still in the tube.
     let fed = s["grains_fed"].as_f64().unwrap();
     assert!((100.0..=200.0).contains(&fed), "{fed} grains fed");
+    // LIGGGHTS's own log is kept beside plugflow's (issue 23): its banner, and the
+    // thermo output of the run's steps in the second file.
+    let log = std::fs::read_to_string(out.join("log.liggghts")).unwrap();
+    assert!(log.contains("LIGGGHTS (Version"), "{log}");
+    let log2 = std::fs::read_to_string(out.join("log2.liggghts")).unwrap();
+    assert!(log2.contains("run "), "{log2}");
     std::fs::remove_dir_all(&out).ok();
 }
 

@@ -360,3 +360,133 @@ fn timeseries_csv_is_run_h5s(out: &Path, f: &hdf5::File) {
     assert!(wall_columns >= 3, "{header:?}");
     assert_eq!(header.len(), 4 + wall_columns, "{header:?}");
 }
+
+/// What ParaView itself (its XDMF reader under `pvbatch`) reads from `run.xdmf`: the
+/// timesteps, and at time `at` the particles' points and ids and the slices' porosity.
+/// None where ParaView's Python (`paraview.simple`) is not installed.
+fn read_xdmf_with_paraview(out: &Path, at: f64) -> Option<serde_json::Value> {
+    let script = format!(
+        r#"
+import json
+from paraview.simple import XDMFReader
+from paraview import servermanager as sm
+from vtkmodules.util.numpy_support import vtk_to_numpy as np_
+r = XDMFReader(FileNames=[r'{}/run.xdmf'])
+r.UpdatePipelineInformation()
+times = [float(t) for t in r.TimestepValues]
+r.UpdatePipeline({:?})
+data = sm.Fetch(r)
+blocks = {{}}
+it = data.NewIterator()
+it.InitTraversal()
+while not it.IsDoneWithTraversal():
+    name = it.GetCurrentMetaData().Get(data.NAME())
+    blocks[name] = it.GetCurrentDataObject()
+    it.GoToNextItem()
+p = blocks['particles']
+s = blocks['slices']
+print(json.dumps(dict(
+    times=times,
+    blocks=sorted(blocks),
+    points=np_(p.GetPoints().GetData()).tolist(),
+    ids=np_(p.GetPointData().GetArray('id')).tolist(),
+    slice_x=np_(s.GetPoints().GetData())[:, 0].tolist(),
+    porosity=np_(s.GetPointData().GetArray('porosity')).tolist(),
+)))
+"#,
+        out.display(),
+        at
+    );
+    let script_file = out.join("read_xdmf.py");
+    std::fs::write(&script_file, script).unwrap();
+    let o = Command::new("pvbatch")
+        .arg("--force-offscreen-rendering")
+        .arg(&script_file)
+        .output()
+        .ok()?;
+    let text = String::from_utf8_lossy(&o.stdout).to_string();
+    let err = String::from_utf8_lossy(&o.stderr).to_string();
+    if !o.status.success() && err.contains("No module named 'paraview'") {
+        return None;
+    }
+    assert!(o.status.success(), "{err}");
+    let json = text.lines().rfind(|l| l.starts_with('{')).unwrap_or("{}");
+    Some(serde_json::from_str(json).unwrap())
+}
+
+/// `run.xdmf` opens `run.h5` in ParaView (issue 23): its timesteps are the sample times,
+/// and at the last snapshot's time ParaView's particles are run.h5's (points, ids, bit for
+/// bit) and its slices carry run.h5's porosity row of that time.
+#[test]
+fn run_xdmf_opens_run_h5_in_paraview() {
+    let out = tmp("xdmf");
+    short_coupled_run(&out);
+    let f = hdf5::File::open(out.join("run.h5")).unwrap();
+    let last = f.group("particles/000002").unwrap();
+    let at: f64 = last.attr("time").unwrap().read_scalar().unwrap();
+    let Some(v) = read_xdmf_with_paraview(&out, at) else {
+        assert!(
+            std::env::var("PLUGFLOW_REQUIRE_PARAVIEW").is_err(),
+            "ParaView's Python is required here but does not import"
+        );
+        eprintln!("pvbatch with paraview.simple not installed: run.xdmf was not read back");
+        return;
+    };
+    let time: Vec<f64> = f.dataset("time").unwrap().read_raw().unwrap();
+    let seen: Vec<f64> = v["times"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|t| t.as_f64().unwrap())
+        .collect();
+    // The samples' times (the snapshots fall on samples); the last is the last sample.
+    assert_eq!(seen, time, "ParaView's timesteps");
+    assert_eq!(
+        v["blocks"],
+        serde_json::json!(["gas", "particles", "slices"])
+    );
+    // At the last snapshot's time: its particles, and the slices of the sample taken
+    // with it.
+    let pos = last.dataset("position").unwrap().read_2d::<f64>().unwrap();
+    let ids: Vec<u64> = last.dataset("id").unwrap().read_raw().unwrap();
+    let vids: Vec<u64> = v["ids"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|x| x.as_u64().unwrap())
+        .collect();
+    assert_eq!(vids, ids);
+    let points = v["points"].as_array().unwrap();
+    assert_eq!(points.len(), pos.nrows());
+    for (i, p) in points.iter().enumerate() {
+        for d in 0..3 {
+            assert_eq!(p[d].as_f64().unwrap(), pos[[i, d]], "grain {i} axis {d}");
+        }
+    }
+    let z: Vec<f64> = f.dataset("fields/z_slices").unwrap().read_raw().unwrap();
+    let xs: Vec<f64> = v["slice_x"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|x| x.as_f64().unwrap())
+        .collect();
+    assert_eq!(xs, z, "slices along the axis");
+    let por = f
+        .dataset("fields/porosity")
+        .unwrap()
+        .read_2d::<f64>()
+        .unwrap();
+    let k = time
+        .iter()
+        .position(|&t| t == at)
+        .expect("snapshots are taken at samples");
+    let row: Vec<f64> = por.row(k).to_vec();
+    let seen_por: Vec<f64> = v["porosity"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|x| x.as_f64().unwrap())
+        .collect();
+    assert_eq!(seen_por, row, "the porosity of the snapshot's sample");
+    std::fs::remove_dir_all(&out).ok();
+}

@@ -126,7 +126,7 @@ fn assert_same_run(straight: &Path, resumed: &Path, what: &str) {
         );
     }
     let text = |d: &Path, f: &str| std::fs::read_to_string(d.join(f)).unwrap();
-    for f in ["timeseries.csv", "particles.pvd", "gas.pvd"] {
+    for f in ["timeseries.csv", "particles.pvd", "gas.pvd", "run.xdmf"] {
         assert_eq!(text(straight, f), text(resumed, f), "{what}: {f} differs");
     }
     for k in 0..4 {
@@ -303,6 +303,104 @@ fn checkpoints_that_do_not_fit_are_refused_naming_why() {
     assert_eq!(code, 2, "{text}");
     assert!(text.contains("no checkpoint there"), "{text}");
     for d in [out, empty] {
+        std::fs::remove_dir_all(d).ok();
+    }
+}
+
+/// `run --from`: a new run starts from another run's grains and gas at t = 0 with its own
+/// settings. Nothing is lost or made on the way: the grains it ends with are the ones it
+/// took over plus its own feed less its own outflow. A checkpoint from another tube is
+/// refused naming the field.
+#[test]
+fn a_run_starts_from_another_runs_filled_tube() {
+    let scene = case("vertical_plug.toml");
+    let filled = fresh("filled");
+    let (code, text) = run(&scene, &filled, "0.1", &[INTERVAL], &[]);
+    assert_eq!(code, 0, "{text}");
+    let taken = read_summary(&filled)["particles_final"].as_u64().unwrap();
+    assert!(taken > 20, "{taken} grains");
+
+    let next = fresh("from_filled");
+    let from = ["--from", filled.to_str().unwrap()];
+    let (code, text) = run(&scene, &next, "0.05", &["contact.friction=0.3"], &from);
+    assert_eq!(code, 0, "{text}");
+    let s = read_summary(&next);
+    let n = |k: &str| s[k].as_u64().unwrap_or_else(|| panic!("{k}: {s}"));
+    assert!(
+        (s["simulated_time_s"].as_f64().unwrap() - 0.05).abs() < 1e-9,
+        "{s}"
+    );
+    assert_eq!(
+        n("particles_final"),
+        taken + n("grains_fed") - n("grains_out") - n("grains_lost"),
+        "{s}"
+    );
+    // Its own feed only: 0.05 s of 2.49 kg/h of 1.35e-6 kg grains is ~26.
+    assert!((15..40).contains(&n("grains_fed")), "{s}");
+    let log = std::fs::read_to_string(next.join("log.plugflow")).unwrap();
+    assert!(log.contains(&format!("{taken} grains")), "{log}");
+
+    let other = fresh("from_other_tube");
+    let (code, text) = run(&scene, &other, "0.05", &["tube.diameter=\"8 mm\""], &from);
+    assert_eq!(code, 2, "{text}");
+    assert!(text.contains("tube.diameter"), "{text}");
+    for d in [filled, next, other] {
+        std::fs::remove_dir_all(d).ok();
+    }
+}
+
+/// A sweep re-run into its folder skips the variants that finished and resumes the others
+/// from their own checkpoints (here one whose summary is gone, as after a kill: it resumes
+/// at its end and writes the same summary); `sweep --from` starts every variant from one
+/// filled tube.
+#[test]
+fn a_sweep_rerun_skips_finished_variants_and_resumes_the_rest() {
+    let scene = case("vertical_plug.toml");
+    let out = fresh("sweep");
+    let sweep = |extra: &[&str]| {
+        let mut args = vec![
+            "sweep",
+            &scene,
+            "--vary",
+            "contact.friction=0.3,0.5",
+            "--duration",
+            "0.05",
+            "--set",
+            INTERVAL,
+            "--out",
+            out.to_str().unwrap(),
+        ];
+        args.extend_from_slice(extra);
+        plugflow(&args)
+    };
+    let (code, text) = sweep(&[]);
+    assert_eq!(code, 0, "{text}");
+    let before = physics(&out.join("001"));
+    std::fs::remove_file(out.join("001/summary.json")).unwrap();
+    let (code, text) = sweep(&[]);
+    assert_eq!(code, 0, "{text}");
+    assert!(text.contains("skip  000"), "{text}");
+    assert!(text.contains("resume 001"), "{text}");
+    assert_eq!(
+        physics(&out.join("001")),
+        before,
+        "the resumed variant's summary"
+    );
+
+    let filled = fresh("sweep_filled");
+    let (code, text) = run(&scene, &filled, "0.1", &[INTERVAL], &[]);
+    assert_eq!(code, 0, "{text}");
+    let (code, text) = sweep(&["--from", filled.to_str().unwrap()]);
+    assert_eq!(code, 0, "{text}");
+    for k in ["000", "001"] {
+        assert!(
+            text.contains(&format!("start {k}")),
+            "another start: {text}"
+        );
+        let log = std::fs::read_to_string(out.join(k).join("log.plugflow")).unwrap();
+        assert!(log.contains("started from"), "{log}");
+    }
+    for d in [out, filled] {
         std::fs::remove_dir_all(d).ok();
     }
 }

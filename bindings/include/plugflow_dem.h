@@ -25,7 +25,7 @@ extern "C" {
 #endif
 
 #define PF_DEM_ABI_MAJOR 1
-#define PF_DEM_ABI_MINOR 1
+#define PF_DEM_ABI_MINOR 2
 
 /* Status codes (fixed numbers; never renumbered). */
 #define PF_OK 0
@@ -123,6 +123,10 @@ pf_status pf_dem_wall_name(const pf_dem *dem, size_t index, char *buf, size_t le
 
 /* Optional. The engine's own feed and outflow counters. */
 pf_status pf_dem_flow_get(const pf_dem *dem, pf_dem_flow *flow);
+
+/* Optional (ABI 1.2). Keep the engine's own log in folder `dir` (UTF-8, len bytes, no NUL
+ * needed) when it closes, instead of deleting it with its working files. */
+pf_status pf_dem_keep_log(pf_dem *dem, const char *dir, size_t len);
 
 #ifdef __cplusplus
 }

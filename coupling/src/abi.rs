@@ -15,7 +15,7 @@ use crate::{Real, Vec3};
 /// ABI major version: a loader refuses a library with another major.
 pub const ABI_MAJOR: u32 = 1;
 /// ABI minor version: minors only add optional calls.
-pub const ABI_MINOR: u32 = 1;
+pub const ABI_MINOR: u32 = 2;
 /// `abi_version()` of this build: major << 16 | minor.
 pub const ABI_VERSION: u32 = (ABI_MAJOR << 16) | ABI_MINOR;
 
@@ -109,6 +109,7 @@ pub type RemovePastOutletFn = unsafe extern "C" fn(*mut PfDem, *mut f64) -> i32;
 pub type ReadWallForcesFn = unsafe extern "C" fn(*const PfDem, usize, *mut f64) -> i32;
 pub type WallNameFn = unsafe extern "C" fn(*const PfDem, usize, *mut c_char, usize) -> i32;
 pub type FlowGetFn = unsafe extern "C" fn(*const PfDem, *mut PfDemFlow) -> i32;
+pub type KeepLogFn = unsafe extern "C" fn(*mut PfDem, *const c_char, usize) -> i32;
 
 /// Every call of the ABI: (symbol, Rust type name of its pointer type, optional).
 /// The header test compares these with the prototypes of plugflow_dem.h.
@@ -150,6 +151,7 @@ pub fn declarations() -> Vec<(&'static str, &'static str, bool)> {
         ),
         ("pf_dem_wall_name", type_name::<WallNameFn>(), false),
         ("pf_dem_flow_get", type_name::<FlowGetFn>(), true),
+        ("pf_dem_keep_log", type_name::<KeepLogFn>(), true),
     ]
 }
 
@@ -189,6 +191,7 @@ struct Calls {
     walls: ReadWallForcesFn,
     wall_name: WallNameFn,
     flow: Option<FlowGetFn>,
+    keep_log: Option<KeepLogFn>,
 }
 
 /// A DEM engine behind the C ABI, loaded at run time.
@@ -330,6 +333,7 @@ impl AbiBackend {
             walls: required!("pf_dem_read_wall_forces", ReadWallForcesFn),
             wall_name: required!("pf_dem_wall_name", WallNameFn),
             flow: optional!("pf_dem_flow_get", FlowGetFn),
+            keep_log: optional!("pf_dem_keep_log", KeepLogFn),
         };
         let mut handle: *mut PfDem = std::ptr::null_mut();
         // SAFETY: the text pointer and length describe `scene_json`; `handle` is writable.
@@ -625,6 +629,16 @@ impl DemBackend for AbiBackend {
     /// Wall time in the engine's calls, as seen from this side of the ABI.
     fn stage_times(&self) -> Vec<(String, f64)> {
         self.timer.entries()
+    }
+
+    fn keep_log(&mut self, dir: &std::path::Path) -> Result<(), BackendError> {
+        let Some(f) = self.calls.keep_log else {
+            return Ok(()); // an engine of ABI 1.1 or one without a log of its own
+        };
+        let text = dir.display().to_string();
+        // SAFETY: live handle; the pointer and length describe `text`.
+        let st = unsafe { f(self.handle, text.as_ptr() as *const c_char, text.len()) };
+        self.check(st, "pf_dem_keep_log")
     }
 
     fn flow(&self) -> Option<crate::backend::GrainFlow> {

@@ -450,6 +450,27 @@ macro_rules! export_dem_abi {
                 })
             }
 
+            #[no_mangle]
+            pub unsafe extern "C" fn pf_dem_keep_log(
+                dem: *mut PfDem,
+                dir: *const c_char,
+                len: usize,
+            ) -> i32 {
+                with_handle(dem, |h| {
+                    if dir.is_null() {
+                        return Err((status::NULL, "`dir` is NULL".into()));
+                    }
+                    // SAFETY: the caller passes `len` readable bytes.
+                    let bytes = std::slice::from_raw_parts(dir as *const u8, len);
+                    let dir = std::str::from_utf8(bytes).map_err(|e| {
+                        (status::INVALID_ARGUMENT, format!("`dir` is not UTF-8: {e}"))
+                    })?;
+                    h.engine
+                        .keep_log(std::path::Path::new(dir))
+                        .map_err(backend_failure)
+                })
+            }
+
             /// The exports have exactly the loader's pointer types.
             const _: () = {
                 let _: abi::AbiVersionFn = pf_dem_abi_version;
@@ -465,6 +486,7 @@ macro_rules! export_dem_abi {
                 let _: abi::ReadWallForcesFn = pf_dem_read_wall_forces;
                 let _: abi::WallNameFn = pf_dem_wall_name;
                 let _: abi::FlowGetFn = pf_dem_flow_get;
+                let _: abi::KeepLogFn = pf_dem_keep_log;
                 let _: abi::CheckFn = pf_dem_check;
             };
         }

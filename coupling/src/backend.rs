@@ -153,6 +153,12 @@ pub trait DemBackend {
     fn contact_forces(&self) -> Option<Vec<Vec3>> {
         None
     }
+    /// Keep the engine's own log (LIGGGHTS's `log.liggghts`) in `dir`, the run's folder,
+    /// when the engine closes, instead of deleting it with its working files. Engines
+    /// without a log of their own have nothing to keep.
+    fn keep_log(&mut self, _dir: &std::path::Path) -> Result<(), BackendError> {
+        Ok(())
+    }
     /// The engine's whole state between two `advance` calls, as bytes only this engine
     /// reads back (a checkpoint): restoring it and advancing gives bit for bit what
     /// advancing without the detour gives. Engines that cannot refuse, saying why.
@@ -161,6 +167,16 @@ pub trait DemBackend {
             engine: self.engine_name().to_string(),
             message: "this engine cannot write checkpoints (`output.checkpoint_interval`)"
                 .to_string(),
+        })
+    }
+    /// Start from the grains of a state [`DemBackend::save_state`] wrote (another run's,
+    /// with the same walls and grains) at this engine's time zero, with its own settings
+    /// (friction, feed, ...): the grains, their contacts and histories are taken; the
+    /// clock, the step count and the feed and outflow counters start again.
+    fn start_from_state(&mut self, _state: &[u8]) -> Result<(), BackendError> {
+        Err(BackendError::Engine {
+            engine: self.engine_name().to_string(),
+            message: "this engine cannot start from checkpoints".to_string(),
         })
     }
     /// Take back a state [`DemBackend::save_state`] wrote (an engine built from the same

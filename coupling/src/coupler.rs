@@ -191,6 +191,15 @@ impl Coupler {
         Ok(())
     }
 
+    /// Start from the gas of a checkpoint (another run's, the same grid) with this
+    /// coupler's own settings: its inlet velocity, no exchanges yet, fresh statistics.
+    pub fn start_from_state(&mut self, state: &CouplerState) -> Result<(), GasError> {
+        let inlet = self.gas.superficial_velocity();
+        self.gas.restore_state(&state.gas)?;
+        self.gas.set_superficial_velocity(inlet);
+        Ok(())
+    }
+
     /// Advance the coupled system by `steps` DEM steps: whole coupling intervals, then a
     /// shorter last one if `steps` is not a multiple of [`Coupler::substeps`].
     pub fn advance(&mut self, dem: &mut dyn DemBackend, steps: u64) -> Result<(), StepError> {
@@ -554,6 +563,9 @@ mod tests {
             &self.grid
         }
         fn set_superficial_velocity(&mut self, _: Real) {}
+        fn superficial_velocity(&self) -> Real {
+            0.0
+        }
         fn step(&mut self, _: &GranularFields, dt: Real) -> Result<GasStepReport, GasError> {
             self.spans.borrow_mut().push(dt);
             Ok(GasStepReport::default())

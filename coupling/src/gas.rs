@@ -41,6 +41,8 @@ pub trait GasSolver {
     fn grid(&self) -> &TubeGrid;
     /// Change the inlet's superficial gas velocity, m/s (ramps, step changes).
     fn set_superficial_velocity(&mut self, v: Real);
+    /// The inlet's superficial gas velocity now, m/s.
+    fn superficial_velocity(&self) -> Real;
     /// Advance over `dt` seconds with the given granular fields.
     fn step(&mut self, fields: &GranularFields, dt: Real) -> Result<GasStepReport, GasError>;
     /// Pressure P' = P − P0 on the nodes, Pa.

@@ -32,6 +32,11 @@ pub struct RunArgs {
     /// may differ. The run writes into that run's folder unless --out says otherwise.
     #[arg(long, value_name = "DIR")]
     pub resume: Option<PathBuf>,
+    /// Start from another run's checkpoint (a run folder or a `.pfc` file): its grains,
+    /// contacts and gas at t = 0, with this scene's other settings (gas velocity, friction,
+    /// feed...). Its tube, grains and gas grid must be this scene's.
+    #[arg(long, value_name = "CHECKPOINT", conflicts_with = "resume")]
+    pub from: Option<PathBuf>,
 }
 
 pub fn main(a: RunArgs) -> ExitCode {
@@ -42,6 +47,7 @@ pub fn main(a: RunArgs) -> ExitCode {
         set,
         quiet,
         resume,
+        from,
     } = a;
     let s = match checked_scene(&scene, &set, duration) {
         Ok(s) => s,
@@ -52,6 +58,7 @@ pub fn main(a: RunArgs) -> ExitCode {
         duration,
         progress: !quiet,
         resume,
+        from,
     };
     // Ctrl-C / SIGTERM: end at the next sample with every output written. (A second
     // signal while it finishes changes nothing; failing to install it only loses this.)

@@ -45,6 +45,10 @@ pub struct StudyArgs {
     /// Override a scene field in every variant (repeatable).
     #[arg(long = "set", value_name = "PATH=VALUE")]
     pub set: Vec<String>,
+    /// Start every variant from this checkpoint (a run folder or a `.pfc` file: the tube
+    /// at steady state), as `plugflow run --from` does; a re-run skips finished variants.
+    #[arg(long, value_name = "CHECKPOINT")]
+    pub from: Option<PathBuf>,
 }
 
 pub fn main(a: StudyArgs) -> ExitCode {
@@ -59,6 +63,7 @@ pub fn main(a: StudyArgs) -> ExitCode {
         jobs,
         threads,
         set,
+        from,
     } = a;
     let varies = match parse_varies(&vary) {
         Ok(v) => v,
@@ -102,6 +107,7 @@ pub fn main(a: StudyArgs) -> ExitCode {
             duration,
             set,
             threads: threads.max(1),
+            from,
         },
         observables: if observables.is_empty() {
             study::DEFAULT_OBSERVABLES.to_vec()
@@ -157,7 +163,11 @@ pub fn main(a: StudyArgs) -> ExitCode {
                 stopped_or(ExitCode::FAILURE, "variants")
             }
         }
-        Err(e @ sweep::SweepError::Vary { .. }) | Err(e @ sweep::SweepError::Scene { .. }) => {
+        Err(
+            e @ (sweep::SweepError::Vary { .. }
+            | sweep::SweepError::Scene { .. }
+            | sweep::SweepError::Start { .. }),
+        ) => {
             eprintln!("error: {e}");
             ExitCode::from(2)
         }

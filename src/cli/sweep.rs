@@ -33,6 +33,11 @@ pub struct SweepArgs {
     /// Override a scene field in every variant (repeatable).
     #[arg(long = "set", value_name = "PATH=VALUE")]
     pub set: Vec<String>,
+    /// Start every variant from this checkpoint (a run folder or a `.pfc` file: a filled
+    /// tube), as `plugflow run --from` does. A sweep re-run into the same folder skips the
+    /// variants that finished and resumes stopped ones from their own checkpoints.
+    #[arg(long, value_name = "CHECKPOINT")]
+    pub from: Option<PathBuf>,
 }
 
 pub fn main(a: SweepArgs) -> ExitCode {
@@ -44,6 +49,7 @@ pub fn main(a: SweepArgs) -> ExitCode {
         jobs,
         threads,
         set,
+        from,
     } = a;
     let varies = match parse_varies(&vary) {
         Ok(v) => v,
@@ -61,6 +67,7 @@ pub fn main(a: SweepArgs) -> ExitCode {
         duration,
         set,
         threads: threads.max(1),
+        from,
     };
     let exe = match plugflow_exe() {
         Ok(e) => e,
@@ -85,7 +92,11 @@ pub fn main(a: SweepArgs) -> ExitCode {
                 stopped_or(ExitCode::FAILURE, "variants")
             }
         }
-        Err(e @ sweep::SweepError::Vary { .. }) | Err(e @ sweep::SweepError::Scene { .. }) => {
+        Err(
+            e @ (sweep::SweepError::Vary { .. }
+            | sweep::SweepError::Scene { .. }
+            | sweep::SweepError::Start { .. }),
+        ) => {
             eprintln!("error: {e}");
             ExitCode::from(2)
         }

@@ -459,6 +459,10 @@ impl GasSolver for DarcyGas {
         self.params.superficial_velocity = v;
     }
 
+    fn superficial_velocity(&self) -> Real {
+        self.params.superficial_velocity
+    }
+
     fn step(&mut self, fields: &GranularFields, dt: Real) -> Result<GasStepReport, GasError> {
         let n = self.grid.len();
         let (clamped, clamped_low) = self.assemble(fields);
@@ -568,13 +572,13 @@ impl GasSolver for DarcyGas {
             phi: self.phi.clone(),
             superficial_velocity: self.params.superficial_velocity,
         };
-        bincode::serialize(&state).map_err(|e| GasError::State {
+        postcard::to_allocvec(&state).map_err(|e| GasError::State {
             reason: format!("cannot encode the d'Arcy gas: {e}"),
         })
     }
 
     fn restore_state(&mut self, bytes: &[u8]) -> Result<(), GasError> {
-        let s: DarcyState = bincode::deserialize(bytes).map_err(|e| GasError::State {
+        let s: DarcyState = postcard::from_bytes(bytes).map_err(|e| GasError::State {
             reason: format!("not a d'Arcy gas state: {e}"),
         })?;
         let n = self.grid.len();

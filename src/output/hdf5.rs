@@ -75,6 +75,8 @@ pub struct Hdf5Output {
     /// One (t, 3) force series per wall, and the tube wall's (axial, cross-axis) split.
     walls: Vec<Dataset>,
     tube_split: Option<TubeSplit>,
+    /// What the file holds, for its XDMF sidecar (`run.xdmf` beside it).
+    layout: super::xdmf::Layout,
     /// Declared last, so dropped last: the datasets and groups are closed before the file.
     /// The other way round, a file whose close failed (a full disk) leaves its datasets
     /// half closed, and closing them then crashes inside HDF5 (H5D_close, issue 26).
@@ -170,9 +172,15 @@ impl Hdf5Output {
             None
         };
         file.flush().map_err(err)?;
+        let layout = super::xdmf::Layout {
+            slices: meta.z_slices.as_ref().map(Vec::len),
+            gas: meta.z_gas.as_ref().map(Vec::len),
+            ..Default::default()
+        };
         Ok(Self {
             path: name,
             file,
+            layout,
             rows: 0,
             time,
             pressure_drop,
@@ -274,11 +282,27 @@ impl Hdf5Output {
             }),
             _ => None,
         };
+        let mut layout = super::xdmf::Layout {
+            times: time_ds.read_raw().map_err(err)?,
+            slices: meta.z_slices.as_ref().map(Vec::len),
+            gas: meta.z_gas.as_ref().map(Vec::len),
+            snapshots: Vec::new(),
+        };
         let particles = if meta.snapshots {
             let g = file.group("particles").map_err(err)?;
-            for later in g.member_names().map_err(err)? {
-                if later.parse::<usize>().is_ok_and(|k| k >= snapshots) {
-                    g.unlink(&later).map_err(err)?;
+            let mut names = g.member_names().map_err(err)?;
+            names.sort();
+            for s in names {
+                if s.parse::<usize>().is_ok_and(|k| k >= snapshots) {
+                    g.unlink(&s).map_err(err)?;
+                } else {
+                    let snap = g.group(&s).map_err(err)?;
+                    let t: Real = snap
+                        .attr("time")
+                        .and_then(|a| a.read_scalar())
+                        .map_err(err)?;
+                    let n = snap.dataset("id").map_err(err)?.size();
+                    layout.snapshots.push((s, t, n));
                 }
             }
             Some(g)
@@ -292,6 +316,7 @@ impl Hdf5Output {
         Ok(Self {
             path: name,
             file,
+            layout,
             rows,
             time: time_ds,
             pressure_drop,
@@ -361,6 +386,7 @@ impl Hdf5Output {
             }
         }
         self.rows += 1;
+        self.layout.times.push(s.time);
         self.file.flush()
     }
 
@@ -368,7 +394,8 @@ impl Hdf5Output {
         let Some(g) = &self.particles else {
             return Ok(());
         };
-        let snap = g.create_group(&format!("{:06}", self.snapshots))?;
+        let group = format!("{:06}", self.snapshots);
+        let snap = g.create_group(&group)?;
         snap.new_attr::<Real>()
             .create("time")?
             .write_scalar(&time)?;
@@ -389,6 +416,7 @@ impl Hdf5Output {
             snap.new_dataset_builder().with_data(a).create(name)?;
         }
         self.snapshots += 1;
+        self.layout.snapshots.push((group, time, p.len()));
         self.file.flush()
     }
 }
@@ -420,6 +448,16 @@ impl Hdf5Output {
 }
 
 impl RunOutput for Hdf5Output {
+    fn close(&mut self) -> Result<(), OutputError> {
+        self.file.flush().map_err(|e| self.err(e))?;
+        let path = std::path::Path::new(&self.path);
+        let href = path
+            .file_name()
+            .map_or_else(|| self.path.clone(), |n| n.to_string_lossy().into_owned());
+        let text = super::xdmf::sidecar(&href, &self.layout);
+        super::xdmf::write(&path.with_extension("xdmf"), &text)
+    }
+
     fn finish(&mut self, profiles: Option<&ProfileResult>) -> Result<(), OutputError> {
         match profiles {
             Some(p) => self.write_profiles(p).map_err(|e| self.err(e)),

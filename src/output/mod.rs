@@ -12,6 +12,7 @@ pub mod figures;
 pub mod hdf5;
 pub mod room;
 pub mod vtk;
+pub mod xdmf;
 
 use plugflow_coupling::ParticleView;
 
@@ -94,6 +95,11 @@ pub trait RunOutput {
     }
     /// The run is over: record what is only known at the end (profiles).
     fn finish(&mut self, _profiles: Option<&ProfileResult>) -> Result<(), OutputError> {
+        Ok(())
+    }
+    /// The last call, whatever happened before: write what describes the output as a
+    /// whole (`run.h5`'s XDMF sidecar).
+    fn close(&mut self) -> Result<(), OutputError> {
         Ok(())
     }
 }

@@ -7,7 +7,7 @@
 //!
 //! File: `checkpoints/checkpoint_<step>.pfc` =
 //! `MAGIC (8 bytes) | format (u32 LE) | payload length (u64 LE) | FNV-1a 64 of the payload
-//! (u64 LE) | payload (bincode)`. Written to a temporary name, synced, then renamed: a
+//! (u64 LE) | payload (postcard)`. Written to a temporary name, synced, then renamed: a
 //! run killed while writing leaves the previous checkpoint whole. The last two are kept.
 
 use std::io::Write;
@@ -85,7 +85,7 @@ pub fn write(out_dir: &Path, c: &Checkpoint) -> Result<PathBuf, RunError> {
         move |source| RunError::Io { path, source }
     };
     std::fs::create_dir_all(&dir).map_err(io(&dir))?;
-    let payload = bincode::serialize(c).map_err(|e| RunError::Io {
+    let payload = postcard::to_allocvec(c).map_err(|e| RunError::Io {
         path: dir.display().to_string(),
         source: std::io::Error::other(format!("cannot encode the checkpoint: {e}")),
     })?;
@@ -149,8 +149,30 @@ pub fn locate(arg: &Path) -> Result<PathBuf, CheckpointError> {
     })
 }
 
+/// What a run wants of a checkpoint.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Use {
+    /// Go on with the run that wrote it: the same scene (but [`MAY_CHANGE`]).
+    Resume,
+    /// Start a new run from its grains and gas: the same geometry, grains and gas grid
+    /// ([`MUST_MATCH_TO_START`]); anything else is the new scene's.
+    Start,
+}
+
+/// The fields a run started from another run's checkpoint must share with it: the grains
+/// and the walls they lie in, and the gas grid the pressures live on.
+const MUST_MATCH_TO_START: [&str; 7] = [
+    "tube.",
+    "domain.",
+    "particles.",
+    "walls",
+    "dem.engine",
+    "gas.model",
+    "gas.grid",
+];
+
 /// Read and check a checkpoint file for `scene`.
-pub fn read(path: &Path, scene: &Scene) -> Result<Checkpoint, CheckpointError> {
+pub fn read(path: &Path, scene: &Scene, to: Use) -> Result<Checkpoint, CheckpointError> {
     let bytes = std::fs::read(path).map_err(|e| refuse(path, format!("cannot read it: {e}")))?;
     if bytes.len() < HEADER || &bytes[..8] != MAGIC {
         return Err(refuse(path, "not a plugflow checkpoint (no header)"));
@@ -181,17 +203,30 @@ pub fn read(path: &Path, scene: &Scene) -> Result<Checkpoint, CheckpointError> {
     if checksum(payload) != sum {
         return Err(refuse(path, "damaged: its checksum does not match"));
     }
-    let c: Checkpoint = bincode::deserialize(payload)
+    let c: Checkpoint = postcard::from_bytes(payload)
         .map_err(|e| refuse(path, format!("cannot be decoded: {e}")))?;
     let here = scene_identity(scene);
-    if c.scene_identity != here {
-        return Err(refuse(
-            path,
-            format!(
-                "written for another scene: {}",
-                first_difference(&c.scene_identity, &here)
-            ),
-        ));
+    match to {
+        Use::Resume if c.scene_identity != here => {
+            return Err(refuse(
+                path,
+                format!(
+                    "written for another scene: {} (to start a new run from its grains, \
+                     use --from)",
+                    first_difference(&c.scene_identity, &here, &[])
+                ),
+            ))
+        }
+        Use::Start => {
+            let differs = first_difference(&c.scene_identity, &here, &MUST_MATCH_TO_START);
+            if !differs.is_empty() {
+                return Err(refuse(
+                    path,
+                    format!("its grains lie in another geometry or gas grid: {differs}"),
+                ));
+            }
+        }
+        Use::Resume => {}
     }
     let engine = &scene.file.dem.engine;
     if &c.engine != engine {
@@ -228,12 +263,14 @@ pub fn scene_identity(scene: &Scene) -> String {
     toml::to_string(&table).unwrap_or_default()
 }
 
-/// The first field whose value differs between two scene identities, said for a user.
-fn first_difference(then: &str, now: &str) -> String {
+/// The first field whose value differs between two scene identities, said for a user;
+/// among the fields starting with one of `only` when it is not empty ("" when none does).
+fn first_difference(then: &str, now: &str, only: &[&str]) -> String {
     let flat = |text: &str| {
         let mut out = Vec::new();
         let table: toml::Table = toml::from_str(text).unwrap_or_default();
         flatten("", &toml::Value::Table(table), &mut out);
+        out.retain(|(k, _)| only.is_empty() || only.iter().any(|p| k.starts_with(p)));
         out
     };
     let (a, b) = (flat(then), flat(now));
@@ -246,7 +283,8 @@ fn first_difference(then: &str, now: &str) -> String {
     }
     match b.iter().find(|(k, _)| !a.iter().any(|(k2, _)| k2 == k)) {
         Some((k, w)) => format!("`{k}` not set there, {w} here"),
-        None => "the scenes differ".to_string(),
+        None if only.is_empty() => "the scenes differ".to_string(),
+        None => String::new(),
     }
 }
 

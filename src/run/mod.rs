@@ -71,6 +71,9 @@ pub struct RunOptions {
     /// Go on from a checkpoint: a `.pfc` file, or a run folder (its latest checkpoint).
     /// The run writes into that run's folder unless `out_dir` says otherwise.
     pub resume: Option<PathBuf>,
+    /// Start from another run's checkpoint (a `.pfc` file or a run folder): its grains
+    /// and gas at t = 0, with this scene's other settings (a filled tube for a sweep).
+    pub from: Option<PathBuf>,
 }
 
 /// Headline numbers of a finished run (also written to `summary.json`).
@@ -88,7 +91,15 @@ pub fn run(scene: &Scene, opts: &RunOptions) -> Result<RunOutcome, RunError> {
     let resumed = match &opts.resume {
         Some(arg) => {
             let path = checkpoint::locate(arg)?;
-            let c = checkpoint::read(&path, scene)?;
+            let c = checkpoint::read(&path, scene, checkpoint::Use::Resume)?;
+            Some((path, c))
+        }
+        None => None,
+    };
+    let start_from = match &opts.from {
+        Some(arg) => {
+            let path = checkpoint::locate(arg)?;
+            let c = checkpoint::read(&path, scene, checkpoint::Use::Start)?;
             Some((path, c))
         }
         None => None,
@@ -123,8 +134,37 @@ pub fn run(scene: &Scene, opts: &RunOptions) -> Result<RunOutcome, RunError> {
         engine: mut dem,
         coupler: mut gas,
     } = setup::build(scene).inspect_err(|e| log.line(&format!("error: {e}")))?;
+    // The engine's own log (LIGGGHTS's) is kept beside plugflow's.
+    if let Err(e) = dem.keep_log(&out_dir) {
+        log.line(&format!(
+            "warning: the engine's own log cannot be kept: {e}"
+        ));
+    }
     let mut sampling = Sampling::new(scene, &cfg);
     let mut at = Progress::default();
+    if let Some((path, c)) = start_from {
+        let refused = |reason: String| checkpoint::CheckpointError {
+            path: path.display().to_string(),
+            reason,
+        };
+        dem.start_from_state(&c.dem)
+            .map_err(|e| refused(e.to_string()))?;
+        match (gas.as_mut(), &c.coupler) {
+            (Some(g), Some(state)) => g
+                .start_from_state(state)
+                .map_err(|e| refused(e.to_string()))?,
+            (None, _) => {}
+            (Some(_), None) => {
+                return Err(refused("it holds no gas, the scene has one".into()).into());
+            }
+        }
+        log.line(&format!(
+            "started from `{}` (t = {} s of the run that wrote it): {} grains",
+            path.display(),
+            c.time,
+            dem.particles().len()
+        ));
+    }
     if let Some((path, c)) = resumed {
         log.line(&format!(
             "resumed from `{}` at t = {} s (step {}, sample {})",
@@ -373,8 +413,12 @@ pub fn run(scene: &Scene, opts: &RunOptions) -> Result<RunOutcome, RunError> {
     }
     // The run's end (or its stop on request) is a checkpoint too: a finished run can be
     // taken further, a stopped one resumed. Not after a failure: that state is broken.
-    let stopped_cleanly = matches!(failure, None | Some(RunError::Interrupted { .. }));
-    if samples_per_checkpoint.is_some() && stopped_cleanly && checkpointed_at != Some(done) {
+    // A stop on request always leaves one where the engine can write it (a sweep re-run
+    // resumes its stopped variants from there).
+    let interrupted = matches!(failure, Some(RunError::Interrupted { .. }));
+    let stopped_cleanly = failure.is_none() || interrupted;
+    let asked = samples_per_checkpoint.is_some();
+    if (asked || interrupted) && stopped_cleanly && checkpointed_at != Some(done) {
         let state = RunState {
             steps_done: done,
             samples_taken,
@@ -395,6 +439,8 @@ pub fn run(scene: &Scene, opts: &RunOptions) -> Result<RunOutcome, RunError> {
                 path.display(),
                 dem.time()
             )),
+            // (Not asked for: an engine that cannot write one just has none.)
+            Err(e) if !asked => log.line(&format!("no checkpoint at the stop: {e}")),
             Err(e) => failure = failure.or(Some(e)),
         }
     }
@@ -433,7 +479,13 @@ pub fn run(scene: &Scene, opts: &RunOptions) -> Result<RunOutcome, RunError> {
             }
         }
     }
-    // Close run.h5 now: what it holds is on disk before the summary says so.
+    // Close run.h5 now (and write its ParaView sidecar): what it holds is on disk before
+    // the summary says so.
+    for o in outputs.iter_mut() {
+        if let Err(e) = o.close() {
+            end_errors.push(RunError::Output(e));
+        }
+    }
     drop(outputs);
     let failure = failure.or_else(|| {
         let mut errors = std::mem::take(&mut end_errors).into_iter();
@@ -584,8 +636,11 @@ const STEPS_PER_PIECE: u64 = 500;
 
 /// The files a run writes into its folder (besides the numbered snapshots, see
 /// [`clear_previous_outputs`]).
-const RUN_OUTPUTS: [&str; 14] = [
+const RUN_OUTPUTS: [&str; 17] = [
     "log.plugflow",
+    "run.xdmf",
+    "log.liggghts",
+    "log2.liggghts",
     "timeseries.csv",
     "particles.pvd",
     "gas.pvd",

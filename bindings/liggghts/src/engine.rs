@@ -67,6 +67,8 @@ pub struct Liggghts {
     feeds: bool,
     pub version: String,
     workdir: PathBuf,
+    /// Where the engine's log files go when it closes (`DemBackend::keep_log`).
+    keep_log: Option<PathBuf>,
     pub flow: PfDemFlow,
     /// Grains created through pf_dem_insert (not counted as fed).
     inserted: std::collections::HashSet<u64>,
@@ -148,6 +150,7 @@ impl Liggghts {
             feeds: false,
             version: String::new(),
             workdir,
+            keep_log: None,
             flow: PfDemFlow::default(),
             inserted: Default::default(),
             seen: Vec::new(),
@@ -578,6 +581,12 @@ impl Drop for Liggghts {
         let _g = OPEN_CLOSE.lock().unwrap_or_else(|p| p.into_inner());
         // SAFETY: the instance is closed once.
         let _ = call(|e, l| unsafe { pfl_close(self.lmp, e, l) });
+        // The run asked to keep LIGGGHTS's own log: beside its other outputs.
+        if let Some(dir) = &self.keep_log {
+            for f in ["log.liggghts", "log2.liggghts"] {
+                let _ = std::fs::copy(self.workdir.join(f), dir.join(f));
+            }
+        }
         let _ = std::fs::remove_dir_all(&self.workdir);
     }
 }
@@ -591,6 +600,11 @@ fn engine_error(message: EngineError) -> BackendError {
 }
 
 impl DemBackend for Liggghts {
+    fn keep_log(&mut self, dir: &std::path::Path) -> Result<(), BackendError> {
+        self.keep_log = Some(dir.to_path_buf());
+        Ok(())
+    }
+
     fn engine_name(&self) -> &str {
         "liggghts"
     }

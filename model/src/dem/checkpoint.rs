@@ -1,5 +1,5 @@
 //! The built-in engine's checkpoint: everything [`NativeDem`] carries from one `advance`
-//! call to the next, as exact bits (bincode keeps every f64 as stored). Restored into an
+//! call to the next, as exact bits (postcard keeps every f64 as its 8 bytes). Restored into an
 //! engine built from the same scene, the next steps are bit for bit those of the engine
 //! that never stopped: the grains keep their order, the neighbour list its pairs and
 //! shear histories, the threads their chunks, the inlet its RNG and backlog. Scratch
@@ -68,12 +68,12 @@ pub(super) fn save(dem: &NativeDem) -> Result<Vec<u8>, BackendError> {
         nlist: dem.nlist.keep(),
         timer: dem.timer.entries(),
     };
-    bincode::serialize(&saved).map_err(|e| refused(format!("cannot encode the grains: {e}")))
+    postcard::to_allocvec(&saved).map_err(|e| refused(format!("cannot encode the grains: {e}")))
 }
 
 /// Go on from `bytes` ([`save`]'s) in an engine built from the same scene.
 pub(super) fn restore(dem: &mut NativeDem, bytes: &[u8]) -> Result<(), BackendError> {
-    let s: Saved = bincode::deserialize(bytes)
+    let s: Saved = postcard::from_bytes(bytes)
         .map_err(|e| refused(format!("the engine's part cannot be read: {e}")))?;
     if s.format != FORMAT {
         return Err(refused(format!(
@@ -146,5 +146,46 @@ pub(super) fn restore(dem: &mut NativeDem, bytes: &[u8]) -> Result<(), BackendEr
         dem.bounds.clear();
         dem.rebuild_pending = true;
     }
+    Ok(())
+}
+
+/// Start from another run's grains ([`save`]'s bytes) at time zero with this engine's own
+/// settings: refused when a grain's size or density is not the scene's (their masses were
+/// computed for another material), naming the field.
+pub(super) fn start_from(dem: &mut NativeDem, bytes: &[u8]) -> Result<(), BackendError> {
+    restore(dem, bytes)?;
+    let cfg = &dem.cfg;
+    let s = &dem.state;
+    let (lo, hi) = (cfg.radius_min, cfg.radius_max);
+    if let Some(i) = (0..s.len()).find(|&i| {
+        let r = s.radius[i];
+        r < lo * (1.0 - 1e-12) || r > hi * (1.0 + 1e-12)
+    }) {
+        return Err(refused(format!(
+            "`particles.diameter`: grain {} has d = {} m, outside the scene's [{}, {}] m",
+            s.id[i],
+            2.0 * s.radius[i],
+            2.0 * lo,
+            2.0 * hi
+        )));
+    }
+    if let Some(i) = (0..s.len()).find(|&i| {
+        let m = cfg.density * 4.0 / 3.0 * std::f64::consts::PI * s.radius[i].powi(3);
+        (s.mass[i] - m).abs() > 1e-12 * m
+    }) {
+        return Err(refused(format!(
+            "`particles.density`: grain {} was made of another density than the scene's {} \
+             kg/m^3",
+            s.id[i], cfg.density
+        )));
+    }
+    dem.time = 0.0;
+    dem.step = 0;
+    dem.flow = FlowCounters::default();
+    dem.feeder = Feeder::default();
+    dem.timer = StageTimer::new();
+    // The skin may be the scene's own: the list is built again at the first step (the
+    // shear histories carry over through the rebuild, as at every build).
+    dem.rebuild_pending = true;
     Ok(())
 }

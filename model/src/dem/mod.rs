@@ -874,6 +874,10 @@ impl DemBackend for NativeDem {
         checkpoint::restore(self, state)
     }
 
+    fn start_from_state(&mut self, state: &[u8]) -> Result<(), BackendError> {
+        checkpoint::start_from(self, state)
+    }
+
     fn flow(&self) -> Option<plugflow_coupling::GrainFlow> {
         let f = &self.flow;
         Some(plugflow_coupling::GrainFlow {

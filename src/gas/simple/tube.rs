@@ -210,6 +210,10 @@ impl GasSolver for SimpleTubeGas {
         self.gas.params.inlet_velocity = v;
     }
 
+    fn superficial_velocity(&self) -> Real {
+        self.gas.params.inlet_velocity
+    }
+
     fn step(&mut self, fields: &GranularFields, dt: Real) -> Result<GasStepReport, GasError> {
         self.advance(fields, dt, 1.0, 1.0)
     }
@@ -300,13 +304,13 @@ impl GasSolver for SimpleTubeGas {
             steps: self.steps,
             last_iterations: self.last_iterations,
         };
-        bincode::serialize(&state).map_err(|e| GasError::State {
+        postcard::to_allocvec(&state).map_err(|e| GasError::State {
             reason: format!("cannot encode the SIMPLE gas: {e}"),
         })
     }
 
     fn restore_state(&mut self, bytes: &[u8]) -> Result<(), GasError> {
-        let s: SimpleState = bincode::deserialize(bytes).map_err(|e| GasError::State {
+        let s: SimpleState = postcard::from_bytes(bytes).map_err(|e| GasError::State {
             reason: format!("not a SIMPLE gas state: {e}"),
         })?;
         let g = &mut self.gas;
