@@ -32,7 +32,7 @@ impl CsvOutput {
         header.push("new_plugs".to_string());
         for w in walls {
             for c in ["x", "y", "z"] {
-                header.push(format!("wall_{w}_f{c}_n"));
+                header.push(quoted(&format!("wall_{w}_f{c}_n")));
             }
         }
         let mut me = Self {
@@ -108,6 +108,30 @@ impl RunOutput for CsvOutput {
             row.extend(f.iter().map(|&v| num(v)));
         }
         self.line(&row.join(","))
+    }
+}
+
+/// A header field as RFC 4180 has it: quoted (quotes doubled) when it holds a comma, a
+/// quote or a line break (a wall a user named `inlet, left`), as is otherwise.
+fn quoted(field: &str) -> String {
+    if field.contains([',', '"', '\n', '\r']) {
+        format!("\"{}\"", field.replace('"', "\"\""))
+    } else {
+        field.to_string()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    /// Python's csv module (and any RFC 4180 reader) reads these back as one field each.
+    #[test]
+    fn header_fields_with_commas_or_quotes_are_quoted() {
+        assert_eq!(super::quoted("wall_tube_fx_n"), "wall_tube_fx_n");
+        assert_eq!(super::quoted("wall_a,b_fx_n"), "\"wall_a,b_fx_n\"");
+        assert_eq!(
+            super::quoted("wall_say \"hi\"_fx_n"),
+            "\"wall_say \"\"hi\"\"_fx_n\""
+        );
     }
 }
 

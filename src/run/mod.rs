@@ -380,6 +380,7 @@ pub fn run(scene: &Scene, opts: &RunOptions) -> Result<RunOutcome, RunError> {
             checkpointed_at = Some(done);
         }
         log.progress(
+            dem.time(),
             || {
                 progress_line(
                     dem.time(),
@@ -446,6 +447,7 @@ pub fn run(scene: &Scene, opts: &RunOptions) -> Result<RunOutcome, RunError> {
     }
     let last = sampling.last_seen();
     log.progress(
+        dem.time(),
         || {
             progress_line(
                 dem.time(),

@@ -20,6 +20,8 @@ pub struct RunLog {
     /// Progress lines go to stderr as well (asked for, and stderr is not a terminal).
     plain_progress: bool,
     last_progress: Option<Instant>,
+    /// The simulated time of the last progress line.
+    last_at: Option<f64>,
     /// The first line that could not be written (the run reports it at its end).
     failed: Option<OutputError>,
 }
@@ -42,6 +44,7 @@ impl RunLog {
             file,
             plain_progress: progress && !std::io::stderr().is_terminal(),
             last_progress: None,
+            last_at: None,
             failed: None,
         })
     }
@@ -61,17 +64,19 @@ impl RunLog {
         }
     }
 
-    /// A progress line, at most every few seconds unless `now` (the first and last ones):
-    /// into the log, and onto stderr off a terminal.
-    pub fn progress(&mut self, text: impl FnOnce() -> String, now: bool) {
+    /// A progress line for simulated time `at`, at most every few seconds unless `now`
+    /// (the first and last ones; never twice for one time: a one-sample run's first line
+    /// is its last): into the log, and onto stderr off a terminal.
+    pub fn progress(&mut self, at: f64, text: impl FnOnce() -> String, now: bool) {
         let due = now
             || self
                 .last_progress
                 .is_none_or(|t| t.elapsed() >= PROGRESS_EVERY);
-        if !due {
+        if !due || self.last_at == Some(at) {
             return;
         }
         self.last_progress = Some(Instant::now());
+        self.last_at = Some(at);
         let text = text();
         if self.plain_progress {
             eprintln!("{text}");
@@ -108,5 +113,21 @@ mod tests {
         assert_eq!(human_duration(245.0), "4m05s");
         assert_eq!(human_duration(3723.0), "1h02m03s");
         assert_eq!(human_duration(f64::INFINITY), "?");
+    }
+    /// The end's progress line is not written again when the last sample's was for the
+    /// same simulated time (a one-sample run printed its only line twice).
+    #[test]
+    fn one_line_per_simulated_time() {
+        let dir = std::env::temp_dir().join(format!("plugflow-runlog-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let mut log = super::RunLog::create(&dir, false, false).unwrap();
+        log.progress(0.01, || "t = 0.01 first".into(), true);
+        log.progress(0.01, || "t = 0.01 again".into(), true);
+        log.progress(0.02, || "t = 0.02".into(), true);
+        drop(log);
+        let text = std::fs::read_to_string(dir.join("log.plugflow")).unwrap();
+        assert_eq!(text.lines().count(), 2, "{text}");
+        assert!(text.contains("first") && !text.contains("again"), "{text}");
+        std::fs::remove_dir_all(&dir).ok();
     }
 }

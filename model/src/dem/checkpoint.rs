@@ -181,6 +181,9 @@ pub(super) fn start_from(dem: &mut NativeDem, bytes: &[u8]) -> Result<(), Backen
     }
     dem.time = 0.0;
     dem.step = 0;
+    // The new run's randomness is its own scene's seed (variants of a sweep from one
+    // filled tube over `seed` differ as runs should).
+    dem.rng = Rng::new(dem.cfg.seed);
     dem.flow = FlowCounters::default();
     dem.feeder = Feeder::default();
     dem.timer = StageTimer::new();
