@@ -121,6 +121,11 @@ fn quoted(field: &str) -> String {
     }
 }
 
+/// Shortest text that parses back to the same f64 (`{}` of f64 is round-trip exact).
+fn num(v: Real) -> String {
+    format!("{v}")
+}
+
 #[cfg(test)]
 mod tests {
     /// Python's csv module (and any RFC 4180 reader) reads these back as one field each.
@@ -133,9 +138,4 @@ mod tests {
             "\"wall_say \"\"hi\"\"_fx_n\""
         );
     }
-}
-
-/// Shortest text that parses back to the same f64 (`{}` of f64 is round-trip exact).
-fn num(v: Real) -> String {
-    format!("{v}")
 }
