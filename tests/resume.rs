@@ -238,7 +238,8 @@ fn a_resumed_simple_gas_run_is_the_uninterrupted_run_bit_for_bit() {
 }
 
 /// What cannot be resumed is refused (exit 2) with the reason: another scene (naming the
-/// field that differs), a truncated file, another format, no checkpoint at all.
+/// field that differs), a truncated file, another format, a damaged one, a folder without
+/// the run's outputs, no checkpoint at all.
 #[test]
 fn checkpoints_that_do_not_fit_are_refused_naming_why() {
     let scene = case("vertical_plug.toml");
@@ -296,6 +297,14 @@ fn checkpoints_that_do_not_fit_are_refused_naming_why() {
     let (code, text) = resume_from(&bad, &[]);
     assert_eq!(code, 2, "{text}");
     assert!(text.contains("checksum"), "{text}");
+
+    // Into another folder, which does not hold the run's outputs to go on with.
+    let (code, text) = resume_from(&latest, &[]);
+    assert_eq!(code, 2, "{text}");
+    assert!(
+        text.contains("are not in") && text.contains("--from"),
+        "{text}"
+    );
 
     let empty = fresh("refusals_empty");
     std::fs::create_dir_all(&empty).unwrap();

@@ -241,6 +241,33 @@ pub fn read(path: &Path, scene: &Scene, to: Use) -> Result<Checkpoint, Checkpoin
     Ok(c)
 }
 
+/// Put a checkpoint's engine and gas state into a run's freshly built engine and coupler:
+/// all of it to resume, the grains and the gas fields to start a new run from it.
+pub fn take_over(
+    path: &Path,
+    c: &Checkpoint,
+    dem: &mut dyn plugflow_coupling::DemBackend,
+    gas: Option<&mut plugflow_coupling::Coupler>,
+    to: Use,
+) -> Result<(), CheckpointError> {
+    let refused = |reason: String| refuse(path, reason);
+    match to {
+        Use::Resume => dem.restore_state(&c.dem),
+        Use::Start => dem.start_from_state(&c.dem),
+    }
+    .map_err(|e| refused(e.to_string()))?;
+    match (gas, &c.coupler, to) {
+        (Some(g), Some(state), Use::Resume) => g.restore_state(state),
+        (Some(g), Some(state), Use::Start) => g.start_from_state(state),
+        (None, None, _) | (None, Some(_), Use::Start) => Ok(()),
+        (Some(_), None, _) => return Err(refused("it holds no gas, the scene has one".into())),
+        (None, Some(_), Use::Resume) => {
+            return Err(refused("it holds a gas, the scene has none".into()))
+        }
+    }
+    .map_err(|e| refused(e.to_string()))
+}
+
 /// Fields a resumed run may set differently from the run that wrote the checkpoint: how
 /// long it runs, how often it checkpoints, and its threads (another thread count goes on
 /// with the same physics, not the same bits).

@@ -143,21 +143,13 @@ pub fn run(scene: &Scene, opts: &RunOptions) -> Result<RunOutcome, RunError> {
     let mut sampling = Sampling::new(scene, &cfg);
     let mut at = Progress::default();
     if let Some((path, c)) = start_from {
-        let refused = |reason: String| checkpoint::CheckpointError {
-            path: path.display().to_string(),
-            reason,
-        };
-        dem.start_from_state(&c.dem)
-            .map_err(|e| refused(e.to_string()))?;
-        match (gas.as_mut(), &c.coupler) {
-            (Some(g), Some(state)) => g
-                .start_from_state(state)
-                .map_err(|e| refused(e.to_string()))?,
-            (None, _) => {}
-            (Some(_), None) => {
-                return Err(refused("it holds no gas, the scene has one".into()).into());
-            }
-        }
+        checkpoint::take_over(
+            &path,
+            &c,
+            dem.as_mut(),
+            gas.as_mut(),
+            checkpoint::Use::Start,
+        )?;
         log.line(&format!(
             "started from `{}` (t = {} s of the run that wrote it): {} grains",
             path.display(),
@@ -173,21 +165,24 @@ pub fn run(scene: &Scene, opts: &RunOptions) -> Result<RunOutcome, RunError> {
             c.steps_done,
             c.samples_taken
         ));
-        let refused = |reason: String| checkpoint::CheckpointError {
-            path: path.display().to_string(),
-            reason,
-        };
-        dem.restore_state(&c.dem)
-            .map_err(|e| refused(e.to_string()))?;
-        match (gas.as_mut(), &c.coupler) {
-            (Some(g), Some(state)) => g.restore_state(state).map_err(|e| refused(e.to_string()))?,
-            (None, None) => {}
-            _ => {
-                return Err(
-                    refused("the gas of the checkpoint and the scene's differ".into()).into(),
-                )
+        if !out_dir.join("run.h5").exists() {
+            return Err(checkpoint::CheckpointError {
+                path: path.display().to_string(),
+                reason: format!(
+                    "the outputs of the run that wrote it are not in `{}`: resume into that \
+                     run's folder (without --out), or start a new run from it with --from",
+                    out_dir.display()
+                ),
             }
+            .into());
         }
+        checkpoint::take_over(
+            &path,
+            &c,
+            dem.as_mut(),
+            gas.as_mut(),
+            checkpoint::Use::Resume,
+        )?;
         if c.threads != cfg.threads {
             log.line(&format!(
                 "warning: the checkpoint ran on {} threads, this run on {}: the same physics, \
