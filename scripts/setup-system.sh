@@ -8,10 +8,11 @@
 #   (none)  also what the tests and the benchmark need: LIGGGHTS with its headers and
 #           OpenMPI (reference engine), YADE with Python 3.11's headers (the YADE shim embeds
 #           Debian's Python to drive it; ~770 MB), procps (pgrep/kill in the isolation
-#           test), and for Debian's own /usr/bin/python3 h5py (reads run.h5 back) and VTK's
-#           Python readers (read the ParaView files back), and ParaView's Python (its XDMF
-#           reader opens run.xdmf under pvbatch; ParaView itself comes with liggghts, its
-#           Python adds ~8 s). Debian's packages, not pip: a plain
+#           test), and for Debian's own /usr/bin/python3 h5py (reads run.h5 back), and
+#           ParaView's Python (under pvbatch, VTK's XML readers read the ParaView files back
+#           and its XDMF reader opens run.xdmf; ParaView itself comes with liggghts, its
+#           Python adds ~8 s; it conflicts with python3-vtk9, which it replaces). Debian's
+#           packages, not pip: a plain
 #           Debian 12 refuses pip into the system Python (PEP 668).
 set -euo pipefail
 # The oldest Rust that builds plugflow: Cargo.toml's rust-version (its dependencies need it).
@@ -19,7 +20,7 @@ need_rust=$(sed -n 's/^rust-version = "\(.*\)"/\1/p' "$(dirname "$0")/../Cargo.t
 pkgs=(build-essential libhdf5-dev pkg-config)
 if [ "${1:-}" != "--base" ]; then
   pkgs+=(liggghts libliggghts-dev libopenmpi-dev yade python3-yade libpython3.11-dev procps
-    python3-h5py python3-vtk9 python3-paraview)
+    python3-h5py python3-paraview)
 fi
 missing=()
 for p in "${pkgs[@]}"; do

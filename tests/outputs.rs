@@ -27,6 +27,16 @@ fn case(name: &str) -> PathBuf {
         .join(name)
 }
 
+/// One test at a time: a test that spawns a child process (pvbatch, Python, plugflow)
+/// while another test's run holds its `run.h5` open hands the child that file's descriptor,
+/// and with it HDF5's lock on the file, which then cannot be opened again until the child
+/// ends ("unable to lock file"). Runs of `plugflow` never spawn while writing.
+static SERIAL: std::sync::Mutex<()> = std::sync::Mutex::new(());
+
+fn serial() -> std::sync::MutexGuard<'static, ()> {
+    SERIAL.lock().unwrap_or_else(|p| p.into_inner())
+}
+
 fn tmp(tag: &str) -> PathBuf {
     let d = std::env::temp_dir().join(format!("plugflow-out-{tag}-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&d);
@@ -53,21 +63,22 @@ fn short_coupled_run(out: &Path) -> serde_json::Value {
     serde_json::to_value(run(&scene, &opts).unwrap().summary).unwrap()
 }
 
-/// What VTK's own readers (Python's `vtk`, as ParaView uses them) see in the snapshot
+/// What VTK's own readers (ParaView's, under `pvbatch`) see in the snapshot
 /// files: the particles' points, ids and TIME of `particles_000002.vtp`, the gas grid's
 /// dimensions, pressure and TIME of `gas_000002.vts`, the times and files of both `.pvd`
-/// series, and the polygons of `geometry.vtp`. None where Python's `vtk` does not import.
+/// series, and the polygons of `geometry.vtp`. None where ParaView's Python is missing.
 fn read_with_vtk(out: &Path) -> Option<serde_json::Value> {
     let script = format!(
         r#"
-import json, vtk, xml.etree.ElementTree as ET
-from vtk.util.numpy_support import vtk_to_numpy as np_
+import json, xml.etree.ElementTree as ET
+from vtkmodules.vtkIOXML import vtkXMLPolyDataReader, vtkXMLStructuredGridReader
+from vtkmodules.util.numpy_support import vtk_to_numpy as np_
 d = r'{}'
 def read(cls, f):
     r = cls(); r.SetFileName(d + '/' + f); r.Update(); return r.GetOutput()
-p = read(vtk.vtkXMLPolyDataReader, 'particles_000002.vtp')
-g = read(vtk.vtkXMLStructuredGridReader, 'gas_000002.vts')
-geo = read(vtk.vtkXMLPolyDataReader, 'geometry.vtp')
+p = read(vtkXMLPolyDataReader, 'particles_000002.vtp')
+g = read(vtkXMLStructuredGridReader, 'gas_000002.vts')
+geo = read(vtkXMLPolyDataReader, 'geometry.vtp')
 series = lambda f: [(float(e.get('timestep')), e.get('file')) for e in ET.parse(d + '/' + f).getroot().iter('DataSet')]
 print(json.dumps(dict(
     points=np_(p.GetPoints().GetData()).tolist(),
@@ -85,17 +96,35 @@ print(json.dumps(dict(
 "#,
         out.display()
     );
-    let o = python().args(["-c", &script]).output().ok()?;
+    pvbatch(out, "read_vtk.py", &script)
+}
+
+/// Run `script` (written into `out` as `name`) with ParaView's `pvbatch` and parse the
+/// JSON line it prints; None where ParaView's Python (Debian's python3-paraview) is missing.
+fn pvbatch(out: &Path, name: &str, script: &str) -> Option<serde_json::Value> {
+    let script_file = out.join(name);
+    std::fs::write(&script_file, script).unwrap();
+    let o = Command::new("pvbatch")
+        .arg("--force-offscreen-rendering")
+        .arg(&script_file)
+        .output()
+        .ok()?;
+    let text = String::from_utf8_lossy(&o.stdout).to_string();
     let err = String::from_utf8_lossy(&o.stderr).to_string();
-    if !o.status.success() && err.contains("No module named 'vtk'") {
+    if !o.status.success()
+        && (err.contains("No module named 'paraview'")
+            || err.contains("No module named 'vtkmodules'"))
+    {
         return None;
     }
     assert!(o.status.success(), "{err}");
-    Some(serde_json::from_slice(&o.stdout).unwrap())
+    let json = text.lines().rfind(|l| l.starts_with('{')).unwrap_or("{}");
+    Some(serde_json::from_str(json).unwrap())
 }
 
 #[test]
 fn run_h5_holds_the_run_and_vtk_matches_it() {
+    let _serial = serial();
     let out = tmp("h5");
     let summary = short_coupled_run(&out);
     let f = hdf5::File::open(out.join("run.h5")).unwrap();
@@ -145,15 +174,16 @@ fn run_h5_holds_the_run_and_vtk_matches_it() {
     let pos = last.dataset("position").unwrap().read_2d::<f64>().unwrap();
     let ids: Vec<u64> = last.dataset("id").unwrap().read_raw().unwrap();
     assert!(!ids.is_empty());
-    // The ParaView files, read by VTK itself. test-all.sh installs Python's `vtk` and sets
-    // PLUGFLOW_REQUIRE_PYTHON_VTK=1; elsewhere the check runs only where it imports.
+    // The ParaView files, read by VTK itself (ParaView's). test-all.sh installs ParaView's
+    // Python and sets PLUGFLOW_REQUIRE_PARAVIEW=1; elsewhere the check runs only where it
+    // imports.
     match read_with_vtk(&out) {
         None => {
             assert!(
-                std::env::var("PLUGFLOW_REQUIRE_PYTHON_VTK").is_err(),
-                "Python's vtk is required here but does not import"
+                std::env::var("PLUGFLOW_REQUIRE_PARAVIEW").is_err(),
+                "ParaView's Python is required here but does not import"
             );
-            eprintln!("Python's vtk not installed: the ParaView files were not read back");
+            eprintln!("ParaView's Python not installed: the ParaView files were not read back");
         }
         Some(v) => {
             assert_eq!(v["time"].as_f64().unwrap(), t);
@@ -273,6 +303,7 @@ fn run_h5_holds_the_run_and_vtk_matches_it() {
 
 #[test]
 fn killed_run_leaves_a_readable_run_h5() {
+    let _serial = serial();
     let out = tmp("kill");
     /// Kills the run also when an assertion below fails.
     struct Killer(std::process::Child);
@@ -397,21 +428,7 @@ print(json.dumps(dict(
         out.display(),
         at
     );
-    let script_file = out.join("read_xdmf.py");
-    std::fs::write(&script_file, script).unwrap();
-    let o = Command::new("pvbatch")
-        .arg("--force-offscreen-rendering")
-        .arg(&script_file)
-        .output()
-        .ok()?;
-    let text = String::from_utf8_lossy(&o.stdout).to_string();
-    let err = String::from_utf8_lossy(&o.stderr).to_string();
-    if !o.status.success() && err.contains("No module named 'paraview'") {
-        return None;
-    }
-    assert!(o.status.success(), "{err}");
-    let json = text.lines().rfind(|l| l.starts_with('{')).unwrap_or("{}");
-    Some(serde_json::from_str(json).unwrap())
+    pvbatch(out, "read_xdmf.py", &script)
 }
 
 /// `run.xdmf` opens `run.h5` in ParaView (issue 23): its timesteps are the sample times,
@@ -419,6 +436,7 @@ print(json.dumps(dict(
 /// bit) and its slices carry run.h5's porosity row of that time.
 #[test]
 fn run_xdmf_opens_run_h5_in_paraview() {
+    let _serial = serial();
     let out = tmp("xdmf");
     short_coupled_run(&out);
     let f = hdf5::File::open(out.join("run.h5")).unwrap();
