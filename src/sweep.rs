@@ -181,7 +181,7 @@ pub fn run_variants(
                     reason: e.to_string(),
                 })?;
         }
-        sets.push((set, label));
+        sets.push((set, label, scene.text));
     }
     std::fs::create_dir_all(&opts.out_dir).map_err(|e| io(&opts.out_dir, &e))?;
     let mut running: Vec<(usize, Child)> = Vec::new();
@@ -213,8 +213,11 @@ pub fn run_variants(
             if let Some(from) = &opts.from {
                 args.extend(["--from".to_string(), from.display().to_string()]);
             }
+            // The scene as run (after the settings) is part of the record: a scene file
+            // edited since is another variant.
             let record = opts.out_dir.join(format!("{next:03}.variant"));
-            let same = std::fs::read_to_string(&record).is_ok_and(|r| r == args.join("\n"));
+            let recorded = format!("{}\n# scene as run:\n{}", args.join("\n"), sets[next].2);
+            let same = std::fs::read_to_string(&record).is_ok_and(|r| r == recorded);
             let finished = Summary::read(&dir.join("summary.json")).is_ok_and(|s| s.completed());
             if same && finished {
                 eprintln!(
@@ -232,7 +235,7 @@ pub fn run_variants(
             if stale.exists() {
                 std::fs::remove_file(&stale).map_err(|e| io(&stale, &e))?;
             }
-            std::fs::write(&record, args.join("\n")).map_err(|e| io(&record, &e))?;
+            std::fs::write(&record, &recorded).map_err(|e| io(&record, &e))?;
             let log = std::fs::OpenOptions::new()
                 .create(true)
                 .write(true)

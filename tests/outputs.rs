@@ -188,20 +188,9 @@ fn run_h5_holds_the_run_and_vtk_matches_it() {
         Some(v) => {
             assert_eq!(v["time"].as_f64().unwrap(), t);
             assert_eq!(v["gas_time"].as_f64().unwrap(), t);
-            let vids: Vec<u64> = v["ids"]
-                .as_array()
-                .unwrap()
-                .iter()
-                .map(|x| x.as_u64().unwrap())
-                .collect();
+            let vids: Vec<u64> = u64s(&v["ids"]);
             assert_eq!(vids, ids);
-            let points = v["points"].as_array().unwrap();
-            assert_eq!(points.len(), pos.nrows());
-            for (i, p) in points.iter().enumerate() {
-                for d in 0..3 {
-                    assert_eq!(p[d].as_f64().unwrap(), pos[[i, d]], "grain {i} axis {d}");
-                }
-            }
+            assert_points(&v["points"], &pos);
             assert_eq!(v["velocity_components"], 3);
             // The series carry the snapshots' simulated times (run.h5's), in order, one
             // file each (the .pvd writes them as {:e}: shortest round trip, exact).
@@ -231,12 +220,7 @@ fn run_h5_holds_the_run_and_vtk_matches_it() {
                 .gas
                 .unwrap()
                 .grid;
-            let dims: Vec<u64> = v["gas_dims"]
-                .as_array()
-                .unwrap()
-                .iter()
-                .map(|x| x.as_u64().unwrap())
-                .collect();
+            let dims: Vec<u64> = u64s(&v["gas_dims"]);
             assert_eq!(dims, vec![g[1] as u64, g[2] as u64, g[0] as u64]);
             let pressure = v["gas_pressure"].as_array().unwrap();
             assert_eq!(pressure.len(), g[0] * g[1] * g[2]);
@@ -254,12 +238,7 @@ fn run_h5_holds_the_run_and_vtk_matches_it() {
         .unwrap()
         .read_raw()
         .unwrap();
-    let listed: Vec<f64> = summary["profiles"]["ring_porosity"]
-        .as_array()
-        .unwrap()
-        .iter()
-        .map(|v| v.as_f64().unwrap_or(f64::NAN))
-        .collect();
+    let listed: Vec<f64> = f64s_or_nan(&summary["profiles"]["ring_porosity"]);
     assert_eq!(rings.len(), listed.len());
     // Drag and contact force along the plug: one value per axial bin each (the built-in
     // engine gives its grains' contact forces).
@@ -451,12 +430,7 @@ fn run_xdmf_opens_run_h5_in_paraview() {
         return;
     };
     let time: Vec<f64> = f.dataset("time").unwrap().read_raw().unwrap();
-    let seen: Vec<f64> = v["times"]
-        .as_array()
-        .unwrap()
-        .iter()
-        .map(|t| t.as_f64().unwrap())
-        .collect();
+    let seen: Vec<f64> = f64s(&v["times"]);
     // The samples' times (the snapshots fall on samples); the last is the last sample.
     assert_eq!(seen, time, "ParaView's timesteps");
     assert_eq!(
@@ -467,27 +441,11 @@ fn run_xdmf_opens_run_h5_in_paraview() {
     // with it.
     let pos = last.dataset("position").unwrap().read_2d::<f64>().unwrap();
     let ids: Vec<u64> = last.dataset("id").unwrap().read_raw().unwrap();
-    let vids: Vec<u64> = v["ids"]
-        .as_array()
-        .unwrap()
-        .iter()
-        .map(|x| x.as_u64().unwrap())
-        .collect();
+    let vids: Vec<u64> = u64s(&v["ids"]);
     assert_eq!(vids, ids);
-    let points = v["points"].as_array().unwrap();
-    assert_eq!(points.len(), pos.nrows());
-    for (i, p) in points.iter().enumerate() {
-        for d in 0..3 {
-            assert_eq!(p[d].as_f64().unwrap(), pos[[i, d]], "grain {i} axis {d}");
-        }
-    }
+    assert_points(&v["points"], &pos);
     let z: Vec<f64> = f.dataset("fields/z_slices").unwrap().read_raw().unwrap();
-    let xs: Vec<f64> = v["slice_x"]
-        .as_array()
-        .unwrap()
-        .iter()
-        .map(|x| x.as_f64().unwrap())
-        .collect();
+    let xs: Vec<f64> = f64s(&v["slice_x"]);
     assert_eq!(xs, z, "slices along the axis");
     let por = f
         .dataset("fields/porosity")
@@ -499,12 +457,41 @@ fn run_xdmf_opens_run_h5_in_paraview() {
         .position(|&t| t == at)
         .expect("snapshots are taken at samples");
     let row: Vec<f64> = por.row(k).to_vec();
-    let seen_por: Vec<f64> = v["porosity"]
-        .as_array()
-        .unwrap()
-        .iter()
-        .map(|x| x.as_f64().unwrap())
-        .collect();
+    let seen_por: Vec<f64> = f64s(&v["porosity"]);
     assert_eq!(seen_por, row, "the porosity of the snapshot's sample");
     std::fs::remove_dir_all(&out).ok();
+}
+
+/// A JSON array of numbers (from the ParaView scripts) as a vector.
+fn f64s(v: &serde_json::Value) -> Vec<f64> {
+    let list = v.as_array().unwrap_or_else(|| panic!("not an array: {v}"));
+    list.iter()
+        .map(|x| x.as_f64().unwrap_or_else(|| panic!("not a number: {x}")))
+        .collect()
+}
+
+/// As [`f64s`], `null` (JSON's NaN) read as NaN.
+fn f64s_or_nan(v: &serde_json::Value) -> Vec<f64> {
+    let list = v.as_array().unwrap_or_else(|| panic!("not an array: {v}"));
+    list.iter()
+        .map(|x| x.as_f64().unwrap_or(f64::NAN))
+        .collect()
+}
+
+fn u64s(v: &serde_json::Value) -> Vec<u64> {
+    let list = v.as_array().unwrap_or_else(|| panic!("not an array: {v}"));
+    list.iter()
+        .map(|x| x.as_u64().unwrap_or_else(|| panic!("not a count: {x}")))
+        .collect()
+}
+
+/// The points ParaView read are run.h5's positions, bit for bit.
+fn assert_points(points: &serde_json::Value, pos: &ndarray::Array2<f64>) {
+    let points = points.as_array().expect("points");
+    assert_eq!(points.len(), pos.nrows());
+    for (i, p) in points.iter().enumerate() {
+        for d in 0..3 {
+            assert_eq!(p[d].as_f64().unwrap(), pos[[i, d]], "grain {i} axis {d}");
+        }
+    }
 }

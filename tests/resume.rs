@@ -395,6 +395,28 @@ fn a_sweep_rerun_skips_finished_variants_and_resumes_the_rest() {
         before,
         "the resumed variant's summary"
     );
+    // The same settings on an edited scene file are other variants: none is skipped.
+    let edited = out.with_extension("edited.toml");
+    let text = std::fs::read_to_string(&scene).unwrap();
+    std::fs::write(&edited, text.replacen("seed = 1", "seed = 2", 1)).unwrap();
+    let (code, text) = plugflow(&[
+        "sweep",
+        edited.to_str().unwrap(),
+        "--vary",
+        "contact.friction=0.3,0.5",
+        "--duration",
+        "0.05",
+        "--set",
+        INTERVAL,
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert_eq!(code, 0, "{text}");
+    assert!(
+        text.contains("start 000") && text.contains("start 001"),
+        "{text}"
+    );
+    std::fs::remove_file(&edited).ok();
 
     let filled = fresh("sweep_filled");
     let (code, text) = run(&scene, &filled, "0.1", &[INTERVAL], &[]);

@@ -572,24 +572,22 @@ impl GasSolver for DarcyGas {
             phi: self.phi.clone(),
             superficial_velocity: self.params.superficial_velocity,
         };
-        postcard::to_allocvec(&state).map_err(|e| GasError::State {
-            reason: format!("cannot encode the d'Arcy gas: {e}"),
-        })
+        super::encode_state(&state, "d'Arcy")
     }
 
     fn restore_state(&mut self, bytes: &[u8]) -> Result<(), GasError> {
-        let s: DarcyState = postcard::from_bytes(bytes).map_err(|e| GasError::State {
-            reason: format!("not a d'Arcy gas state: {e}"),
-        })?;
         let n = self.grid.len();
-        if s.nodes != n || s.p.len() != n || s.p_prev.len() != n || s.phi.len() != n {
-            return Err(GasError::State {
-                reason: format!(
+        let s: DarcyState = super::decode_state(bytes, "d'Arcy", |s: &DarcyState| {
+            let fits = [s.nodes, s.p.len(), s.p_prev.len(), s.phi.len()]
+                .iter()
+                .all(|&l| l == n);
+            (!fits).then(|| {
+                format!(
                     "written for a grid of {} nodes, the scene's has {n}",
                     s.nodes
-                ),
-            });
-        }
+                )
+            })
+        })?;
         self.p = s.p;
         self.p_prev = s.p_prev;
         self.last_dt = s.last_dt;

@@ -107,94 +107,155 @@ const PLUG_COLUMNS: [(&str, &str); 8] = [
     ("velocity", "m/s"),
 ];
 
+/// How [`Hdf5Output::lay_out`] comes by each dataset: made new, or opened in a resumed
+/// run's file and cut back to the checkpoint.
+enum Walk {
+    Create,
+    CutBack {
+        /// Samples written by the checkpoint.
+        rows: usize,
+        /// Particle snapshots written by then.
+        snapshots: usize,
+        /// The checkpoint's time, s (plug rows are kept up to it).
+        time: Real,
+    },
+}
+
+impl Walk {
+    fn rows(&self) -> usize {
+        match self {
+            Walk::Create => 0,
+            Walk::CutBack { rows, .. } => *rows,
+        }
+    }
+
+    fn group(&self, g: &Group, name: &str) -> hdf5::Result<Group> {
+        match self {
+            Walk::Create => g.create_group(name),
+            Walk::CutBack { .. } => g.group(name),
+        }
+    }
+
+    /// A growing 1-D series.
+    fn series(&self, g: &Group, name: &str, unit: &str) -> hdf5::Result<Dataset> {
+        match self {
+            Walk::Create => {
+                let d = g.new_dataset::<Real>().chunk(256).shape(0..).create(name)?;
+                unit_attr(&d, unit)?;
+                Ok(d)
+            }
+            Walk::CutBack { rows, .. } => {
+                let d = g.dataset(name)?;
+                d.resize(*rows)?;
+                Ok(d)
+            }
+        }
+    }
+
+    /// A growing (time × width) field.
+    fn field(&self, g: &Group, name: &str, width: usize, unit: &str) -> hdf5::Result<Dataset> {
+        match self {
+            Walk::Create => {
+                let d = g
+                    .new_dataset::<Real>()
+                    .chunk((16, width.max(1)))
+                    .shape((0.., width))
+                    .create(name)?;
+                unit_attr(&d, unit)?;
+                Ok(d)
+            }
+            Walk::CutBack { rows, .. } => {
+                let d = g.dataset(name)?;
+                d.resize((*rows, width))?;
+                Ok(d)
+            }
+        }
+    }
+
+    /// A dataset written once (a resumed file has it already).
+    fn fixed(&self, g: &Group, name: &str, v: &[Real], unit: &str) -> hdf5::Result<()> {
+        match self {
+            Walk::Create => fixed(g, name, v, unit),
+            Walk::CutBack { .. } => Ok(()),
+        }
+    }
+
+    /// The plug table's columns; rows come in time order, a resumed file keeps those
+    /// observed by the checkpoint.
+    fn plug_columns(&self, g: &Group) -> hdf5::Result<PlugColumns> {
+        let columns = match self {
+            Walk::Create => PLUG_COLUMNS
+                .iter()
+                .map(|(n, u)| Walk::Create.series(g, n, u))
+                .collect::<Result<Vec<_>, _>>()?,
+            Walk::CutBack { .. } => PLUG_COLUMNS
+                .iter()
+                .map(|(n, _)| g.dataset(n))
+                .collect::<Result<Vec<_>, _>>()?,
+        };
+        let rows = match self {
+            Walk::Create => 0,
+            Walk::CutBack { time, .. } => {
+                let times: Vec<Real> = columns[0].read_raw()?;
+                let kept = times.iter().take_while(|&&t| t <= *time).count();
+                for c in &columns {
+                    c.resize(kept)?;
+                }
+                kept
+            }
+        };
+        Ok(PlugColumns { rows, columns })
+    }
+
+    /// The particle snapshots' group; a resumed file loses those after the checkpoint's,
+    /// and the kept ones are listed (name, time, grains) for the XDMF sidecar.
+    fn snapshots(
+        &self,
+        root: &Group,
+        kept: &mut Vec<(String, Real, usize)>,
+    ) -> hdf5::Result<Group> {
+        let Walk::CutBack { snapshots, .. } = self else {
+            return root.create_group("particles");
+        };
+        let g = root.group("particles")?;
+        let mut names = g.member_names()?;
+        names.sort();
+        for s in names {
+            if s.parse::<usize>().is_ok_and(|k| k >= *snapshots) {
+                g.unlink(&s)?;
+            } else {
+                let snap = g.group(&s)?;
+                let t: Real = snap.attr("time")?.read_scalar()?;
+                let n = snap.dataset("id")?.size();
+                kept.push((s, t, n));
+            }
+        }
+        Ok(g)
+    }
+}
+
+/// Strong close: dropping the writer closes the file and every object in it at once, so
+/// the file is free for readers the moment the run ends.
+fn strong_close(
+    p: &mut hdf5::plist::file_access::FileAccessBuilder,
+) -> &mut hdf5::plist::file_access::FileAccessBuilder {
+    p.fclose_degree(hdf5::file::FileCloseDegree::Strong)
+}
+
 impl Hdf5Output {
     /// Create (truncate) `path` and lay out the datasets the run will fill.
     pub fn create(path: &Path, meta: &RunMeta) -> Result<Self, OutputError> {
         let name = path.display().to_string();
         let err = |e: hdf5::Error| OutputError::new(&name, e);
-        // Strong close: dropping the writer closes the file and every object in it at
-        // once, so the file is free for readers the moment the run ends.
         let file = File::with_options()
-            .with_fapl(|p| p.fclose_degree(hdf5::file::FileCloseDegree::Strong))
+            .with_fapl(strong_close)
             .create(path)
             .map_err(err)?;
         text_attr(&file, "scene", meta.scene_text).map_err(err)?;
         text_attr(&file, "plugflow_version", env!("CARGO_PKG_VERSION")).map_err(err)?;
         text_attr(&file, "engine", meta.engine).map_err(err)?;
         text_attr(&file, "engine_version", meta.engine_version).map_err(err)?;
-        let root: &Group = &file;
-        let time = series(root, "time", "s").map_err(err)?;
-        let in_tube = series(root, "particles_in_tube", "1").map_err(err)?;
-        let pressure_drop = match meta.z_gas {
-            Some(_) => Some(series(root, "pressure_drop", "Pa/m").map_err(err)?),
-            None => None,
-        };
-        let fields = file.create_group("fields").map_err(err)?;
-        let (mut slice_porosity, mut slice_velocity, mut plugs) = (None, None, None);
-        if let Some(z) = &meta.z_slices {
-            fixed(&fields, "z_slices", z, "m").map_err(err)?;
-            slice_porosity = Some(field(&fields, "porosity", z.len(), "1").map_err(err)?);
-            slice_velocity =
-                Some(field(&fields, "granular_velocity", z.len(), "m/s").map_err(err)?);
-            let g = file.create_group("plugs").map_err(err)?;
-            let columns = PLUG_COLUMNS
-                .iter()
-                .map(|(n, u)| series(&g, n, u))
-                .collect::<Result<Vec<_>, _>>()
-                .map_err(err)?;
-            plugs = Some(PlugColumns { rows: 0, columns });
-        }
-        let (mut gas_porosity, mut gas_pressure) = (None, None);
-        if let Some(z) = &meta.z_gas {
-            fixed(&fields, "z_gas", z, "m").map_err(err)?;
-            gas_porosity = Some(field(&fields, "gas_porosity", z.len(), "1").map_err(err)?);
-            gas_pressure = Some(field(&fields, "pressure", z.len(), "Pa").map_err(err)?);
-        }
-        let wall_group = file.create_group("walls").map_err(err)?;
-        let walls = meta
-            .walls
-            .iter()
-            .map(|w| field(&wall_group, &dataset_name(w), 3, "N"))
-            .collect::<Result<Vec<_>, _>>()
-            .map_err(err)?;
-        let tube_split = match (meta.tube_axis, meta.walls.iter().position(|w| w == "tube")) {
-            (Some(axis), Some(wall)) => Some(TubeSplit {
-                wall,
-                axis,
-                axial: series(&wall_group, "tube_axial", "N").map_err(err)?,
-                cross_axis: series(&wall_group, "tube_cross_axis", "N").map_err(err)?,
-            }),
-            _ => None,
-        };
-        let particles = if meta.snapshots {
-            Some(file.create_group("particles").map_err(err)?)
-        } else {
-            None
-        };
-        file.flush().map_err(err)?;
-        let layout = super::xdmf::Layout {
-            slices: meta.z_slices.as_ref().map(Vec::len),
-            gas: meta.z_gas.as_ref().map(Vec::len),
-            ..Default::default()
-        };
-        Ok(Self {
-            path: name,
-            file,
-            layout,
-            rows: 0,
-            time,
-            pressure_drop,
-            in_tube,
-            slice_porosity,
-            slice_velocity,
-            gas_porosity,
-            gas_pressure,
-            plugs,
-            particles,
-            snapshots: 0,
-            walls,
-            tube_split,
-        })
+        Self::lay_out(name, file, meta, Walk::Create)
     }
 
     /// Open the `run.h5` of a run resumed from a checkpoint and cut it back to what the
@@ -209,116 +270,100 @@ impl Hdf5Output {
         time: Real,
     ) -> Result<Self, OutputError> {
         let name = path.display().to_string();
-        let err = |e: hdf5::Error| OutputError::new(&name, e);
         let file = File::with_options()
-            .with_fapl(|p| p.fclose_degree(hdf5::file::FileCloseDegree::Strong))
+            .with_fapl(strong_close)
             .open_rw(path)
-            .map_err(err)?;
+            .map_err(|e| OutputError::new(&name, e))?;
         let rows = samples as usize;
-        let time_ds = file.dataset("time").map_err(err)?;
-        if time_ds.size() < rows {
+        let held = file.dataset("time").map(|d| d.size()).unwrap_or(0);
+        if held < rows {
             return Err(OutputError::new(
                 &name,
-                format!(
-                    "holds {} samples, the checkpoint was taken after {rows}",
-                    time_ds.size()
-                ),
+                format!("holds {held} samples, the checkpoint was taken after {rows}"),
             ));
         }
-        let cut1 = |d: &Dataset| d.resize(rows).map_err(err);
-        let cut2 = |d: &Dataset, w: usize| d.resize((rows, w)).map_err(err);
-        let open1 = |g: &str| -> Result<Dataset, OutputError> {
-            let d = file.dataset(g).map_err(err)?;
-            cut1(&d)?;
-            Ok(d)
+        let walk = Walk::CutBack {
+            rows,
+            snapshots,
+            time,
         };
-        let open2 = |g: &str, w: usize| -> Result<Dataset, OutputError> {
-            let d = file.dataset(g).map_err(err)?;
-            cut2(&d, w)?;
-            Ok(d)
+        Self::lay_out(name, file, meta, walk)
+    }
+
+    /// The file's datasets for `meta`, made or (resumed) opened and cut back: one walk
+    /// over the layout, so that a resumed file is the one a new run makes.
+    fn lay_out(name: String, file: File, meta: &RunMeta, walk: Walk) -> Result<Self, OutputError> {
+        let err = |e: hdf5::Error| OutputError::new(&name, e);
+        let root: &Group = &file;
+        let time = walk.series(root, "time", "s").map_err(err)?;
+        let in_tube = walk.series(root, "particles_in_tube", "1").map_err(err)?;
+        let pressure_drop = match meta.z_gas {
+            Some(_) => Some(walk.series(root, "pressure_drop", "Pa/m").map_err(err)?),
+            None => None,
         };
-        cut1(&time_ds)?;
-        let in_tube = open1("particles_in_tube")?;
-        let pressure_drop = meta
-            .z_gas
-            .as_ref()
-            .map(|_| open1("pressure_drop"))
-            .transpose()?;
+        let fields = walk.group(root, "fields").map_err(err)?;
         let (mut slice_porosity, mut slice_velocity, mut plugs) = (None, None, None);
         if let Some(z) = &meta.z_slices {
-            slice_porosity = Some(open2("fields/porosity", z.len())?);
-            slice_velocity = Some(open2("fields/granular_velocity", z.len())?);
-            let columns = PLUG_COLUMNS
-                .iter()
-                .map(|(n, _)| file.dataset(&format!("plugs/{n}")).map_err(err))
-                .collect::<Result<Vec<_>, _>>()?;
-            // Plug rows come in time order: keep those observed by the checkpoint.
-            let times: Vec<Real> = columns[0].read_raw().map_err(err)?;
-            let kept = times.iter().take_while(|&&t| t <= time).count();
-            for c in &columns {
-                c.resize(kept).map_err(err)?;
-            }
-            plugs = Some(PlugColumns {
-                rows: kept,
-                columns,
-            });
+            walk.fixed(&fields, "z_slices", z, "m").map_err(err)?;
+            slice_porosity = Some(walk.field(&fields, "porosity", z.len(), "1").map_err(err)?);
+            slice_velocity = Some(
+                walk.field(&fields, "granular_velocity", z.len(), "m/s")
+                    .map_err(err)?,
+            );
+            let g = walk.group(root, "plugs").map_err(err)?;
+            plugs = Some(walk.plug_columns(&g).map_err(err)?);
         }
         let (mut gas_porosity, mut gas_pressure) = (None, None);
         if let Some(z) = &meta.z_gas {
-            gas_porosity = Some(open2("fields/gas_porosity", z.len())?);
-            gas_pressure = Some(open2("fields/pressure", z.len())?);
+            walk.fixed(&fields, "z_gas", z, "m").map_err(err)?;
+            gas_porosity = Some(
+                walk.field(&fields, "gas_porosity", z.len(), "1")
+                    .map_err(err)?,
+            );
+            gas_pressure = Some(
+                walk.field(&fields, "pressure", z.len(), "Pa")
+                    .map_err(err)?,
+            );
         }
+        let wall_group = walk.group(root, "walls").map_err(err)?;
         let walls = meta
             .walls
             .iter()
-            .map(|w| open2(&format!("walls/{}", dataset_name(w)), 3))
-            .collect::<Result<Vec<_>, _>>()?;
+            .map(|w| walk.field(&wall_group, &dataset_name(w), 3, "N"))
+            .collect::<Result<Vec<_>, _>>()
+            .map_err(err)?;
         let tube_split = match (meta.tube_axis, meta.walls.iter().position(|w| w == "tube")) {
             (Some(axis), Some(wall)) => Some(TubeSplit {
                 wall,
                 axis,
-                axial: open1("walls/tube_axial")?,
-                cross_axis: open1("walls/tube_cross_axis")?,
+                axial: walk.series(&wall_group, "tube_axial", "N").map_err(err)?,
+                cross_axis: walk
+                    .series(&wall_group, "tube_cross_axis", "N")
+                    .map_err(err)?,
             }),
             _ => None,
         };
         let mut layout = super::xdmf::Layout {
-            times: time_ds.read_raw().map_err(err)?,
+            times: time.read_raw().map_err(err)?,
             slices: meta.z_slices.as_ref().map(Vec::len),
             gas: meta.z_gas.as_ref().map(Vec::len),
             snapshots: Vec::new(),
         };
-        let particles = if meta.snapshots {
-            let g = file.group("particles").map_err(err)?;
-            let mut names = g.member_names().map_err(err)?;
-            names.sort();
-            for s in names {
-                if s.parse::<usize>().is_ok_and(|k| k >= snapshots) {
-                    g.unlink(&s).map_err(err)?;
-                } else {
-                    let snap = g.group(&s).map_err(err)?;
-                    let t: Real = snap
-                        .attr("time")
-                        .and_then(|a| a.read_scalar())
-                        .map_err(err)?;
-                    let n = snap.dataset("id").map_err(err)?.size();
-                    layout.snapshots.push((s, t, n));
-                }
-            }
-            Some(g)
-        } else {
-            None
+        let particles = match meta.snapshots {
+            true => Some(walk.snapshots(root, &mut layout.snapshots).map_err(err)?),
+            false => None,
         };
-        if file.link_exists("profiles") {
+        if matches!(walk, Walk::CutBack { .. }) && file.link_exists("profiles") {
             file.unlink("profiles").map_err(err)?;
         }
         file.flush().map_err(err)?;
         Ok(Self {
             path: name,
+            rows: walk.rows(),
+            snapshots: layout.snapshots.len(),
             file,
             layout,
-            rows,
-            time: time_ds,
+            time,
             pressure_drop,
             in_tube,
             slice_porosity,
@@ -327,7 +372,6 @@ impl Hdf5Output {
             gas_pressure,
             plugs,
             particles,
-            snapshots,
             walls,
             tube_split,
         })
@@ -512,24 +556,6 @@ fn unit_attr(d: &Dataset, unit: &str) -> hdf5::Result<()> {
     d.new_attr::<VarLenUnicode>()
         .create("unit")?
         .write_scalar(&v)
-}
-
-/// A growing 1-D series.
-fn series(g: &Group, name: &str, unit: &str) -> hdf5::Result<Dataset> {
-    let d = g.new_dataset::<Real>().chunk(256).shape(0..).create(name)?;
-    unit_attr(&d, unit)?;
-    Ok(d)
-}
-
-/// A growing (time × width) field.
-fn field(g: &Group, name: &str, width: usize, unit: &str) -> hdf5::Result<Dataset> {
-    let d = g
-        .new_dataset::<Real>()
-        .chunk((16, width.max(1)))
-        .shape((0.., width))
-        .create(name)?;
-    unit_attr(&d, unit)?;
-    Ok(d)
 }
 
 fn fixed(g: &Group, name: &str, v: &[Real], unit: &str) -> hdf5::Result<()> {

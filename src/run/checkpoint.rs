@@ -330,3 +330,144 @@ fn flatten(prefix: &str, v: &toml::Value, out: &mut Vec<(String, String)>) {
         other => out.push((prefix.to_string(), other.to_string())),
     }
 }
+
+/// Where a run stands between two samples: at zero, or where its checkpoint left off.
+#[derive(Default)]
+pub(super) struct Progress {
+    pub steps_done: u64,
+    pub samples_taken: u64,
+    /// The times of the snapshots written so far, s.
+    pub snapshot_times: Vec<Real>,
+    /// Wall time of the run before this process, s.
+    pub wall_before: f64,
+}
+
+/// The checkpoints a run begins from (`--resume`, `--from`), read and checked against the
+/// scene before anything is touched.
+pub(super) struct Beginning {
+    resume: Option<(PathBuf, Checkpoint)>,
+    from: Option<(PathBuf, Checkpoint)>,
+}
+
+impl Beginning {
+    pub fn read(
+        scene: &Scene,
+        resume: Option<&Path>,
+        from: Option<&Path>,
+    ) -> Result<Self, CheckpointError> {
+        let open = |arg: Option<&Path>, to: Use| -> Result<_, CheckpointError> {
+            arg.map(|a| {
+                let path = locate(a)?;
+                let c = read(&path, scene, to)?;
+                Ok((path, c))
+            })
+            .transpose()
+        };
+        Ok(Self {
+            resume: open(resume, Use::Resume)?,
+            from: open(from, Use::Start)?,
+        })
+    }
+
+    pub fn resumes(&self) -> bool {
+        self.resume.is_some()
+    }
+
+    /// The folder a resumed run writes into by default: the one its checkpoint lies in
+    /// (`<run>/checkpoints/<file>`).
+    pub fn resumed_run_dir(&self) -> Option<PathBuf> {
+        let (path, _) = self.resume.as_ref()?;
+        path.parent().and_then(Path::parent).map(Path::to_path_buf)
+    }
+
+    /// Hand the checkpoints' states to the freshly built engine and gas (`--from`: grains
+    /// and gas fields; `--resume`: all of it, and the sampling and counters returned), each
+    /// said in the run's log.
+    pub fn take_over(
+        self,
+        out_dir: &Path,
+        threads: usize,
+        dem: &mut dyn plugflow_coupling::DemBackend,
+        mut gas: Option<&mut plugflow_coupling::Coupler>,
+        log: &mut super::run_log::RunLog,
+    ) -> Result<Option<(Sampling, Progress)>, CheckpointError> {
+        if let Some((path, c)) = self.from {
+            take_over(&path, &c, dem, gas.as_deref_mut(), Use::Start)?;
+            log.line(&format!(
+                "started from `{}` (t = {} s of the run that wrote it): {} grains",
+                path.display(),
+                c.time,
+                dem.particles().len()
+            ));
+        }
+        let Some((path, c)) = self.resume else {
+            return Ok(None);
+        };
+        log.line(&format!(
+            "resumed from `{}` at t = {} s (step {}, sample {})",
+            path.display(),
+            c.time,
+            c.steps_done,
+            c.samples_taken
+        ));
+        if !out_dir.join("run.h5").exists() {
+            return Err(refuse(
+                &path,
+                format!(
+                    "the outputs of the run that wrote it are not in `{}`: resume into that \
+                     run's folder (without --out), or start a new run from it with --from",
+                    out_dir.display()
+                ),
+            ));
+        }
+        take_over(&path, &c, dem, gas, Use::Resume)?;
+        if c.threads != threads {
+            log.line(&format!(
+                "warning: the checkpoint ran on {} threads, this run on {threads}: the same \
+                 physics, not the same bits",
+                c.threads
+            ));
+        }
+        let at = Progress {
+            steps_done: c.steps_done,
+            samples_taken: c.samples_taken,
+            snapshot_times: c.snapshot_times,
+            wall_before: c.wall_time_s,
+        };
+        Ok(Some((c.sampling, at)))
+    }
+}
+
+/// Write a checkpoint of the run as it stands (between samples: no advance is under way).
+pub(super) fn save(
+    out_dir: &Path,
+    scene: &Scene,
+    dem: &dyn plugflow_coupling::DemBackend,
+    gas: Option<&plugflow_coupling::Coupler>,
+    sampling: &Sampling,
+    at: &Progress,
+    wall_time_s: f64,
+) -> Result<PathBuf, RunError> {
+    let failed = |reason: String| RunError::Io {
+        path: folder(out_dir).display().to_string(),
+        source: std::io::Error::other(format!("cannot take a checkpoint: {reason}")),
+    };
+    let c = Checkpoint {
+        plugflow_version: env!("CARGO_PKG_VERSION").to_string(),
+        scene_identity: scene_identity(scene),
+        engine: dem.engine_name().to_string(),
+        threads: scene.file.dem.threads,
+        time: dem.time(),
+        steps_done: at.steps_done,
+        samples_taken: at.samples_taken,
+        snapshot_times: at.snapshot_times.clone(),
+        wall_time_s,
+        dem: dem.save_state().map_err(|e| failed(e.to_string()))?,
+        coupler: gas
+            .map(|g| g.save_state())
+            .transpose()
+            .map_err(|e| failed(e.to_string()))?,
+        sampling: sampling.clone(),
+    };
+    write(out_dir, &c)
+}

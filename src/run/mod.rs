@@ -23,6 +23,7 @@ use crate::scene::{Scene, SceneError};
 use crate::setup::{self, Setup};
 use crate::summary::Summary;
 use crate::Real;
+use checkpoint::Progress;
 use report::{summarize, write_figures, Ending};
 use run_log::{human_duration, RunLog};
 use sampling::Sampling;
@@ -87,43 +88,24 @@ pub struct RunOutcome {
 
 /// Run a scene to its end.
 pub fn run(scene: &Scene, opts: &RunOptions) -> Result<RunOutcome, RunError> {
-    // A resumed run: its checkpoint, checked against the scene before anything is touched.
-    let resumed = match &opts.resume {
-        Some(arg) => {
-            let path = checkpoint::locate(arg)?;
-            let c = checkpoint::read(&path, scene, checkpoint::Use::Resume)?;
-            Some((path, c))
-        }
-        None => None,
-    };
-    let start_from = match &opts.from {
-        Some(arg) => {
-            let path = checkpoint::locate(arg)?;
-            let c = checkpoint::read(&path, scene, checkpoint::Use::Start)?;
-            Some((path, c))
-        }
-        None => None,
-    };
-    let out_dir = match (&opts.out_dir, &resumed) {
-        (Some(d), _) => d.clone(),
-        // The run folder the checkpoint lies in (`<run>/checkpoints/<file>`).
-        (None, Some((path, _))) => path
-            .parent()
-            .and_then(Path::parent)
-            .map(Path::to_path_buf)
-            .unwrap_or_else(|| scene.default_output_dir()),
-        (None, None) => scene.default_output_dir(),
-    };
+    // The checkpoints it begins from, checked against the scene before anything is touched.
+    let beginning =
+        checkpoint::Beginning::read(scene, opts.resume.as_deref(), opts.from.as_deref())?;
+    let out_dir = opts
+        .out_dir
+        .clone()
+        .or_else(|| beginning.resumed_run_dir())
+        .unwrap_or_else(|| scene.default_output_dir());
     std::fs::create_dir_all(&out_dir).map_err(|source| RunError::Io {
         path: out_dir.display().to_string(),
         source,
     })?;
-    if resumed.is_none() {
+    if !beginning.resumes() {
         clear_previous_outputs(&out_dir)?;
     }
     // A disk too full for the run's end is said before the run starts.
     crate::output::room::RoomGuard::new(&out_dir.join("run.h5")).check()?;
-    let mut log = RunLog::create(&out_dir, opts.progress, resumed.is_some())?;
+    let mut log = RunLog::create(&out_dir, opts.progress, beginning.resumes())?;
     log.line(&format!(
         "plugflow {}: scene `{}`",
         env!("CARGO_PKG_VERSION"),
@@ -140,64 +122,11 @@ pub fn run(scene: &Scene, opts: &RunOptions) -> Result<RunOutcome, RunError> {
             "warning: the engine's own log cannot be kept: {e}"
         ));
     }
-    let mut sampling = Sampling::new(scene, &cfg);
-    let mut at = Progress::default();
-    if let Some((path, c)) = start_from {
-        checkpoint::take_over(
-            &path,
-            &c,
-            dem.as_mut(),
-            gas.as_mut(),
-            checkpoint::Use::Start,
-        )?;
-        log.line(&format!(
-            "started from `{}` (t = {} s of the run that wrote it): {} grains",
-            path.display(),
-            c.time,
-            dem.particles().len()
-        ));
-    }
-    if let Some((path, c)) = resumed {
-        log.line(&format!(
-            "resumed from `{}` at t = {} s (step {}, sample {})",
-            path.display(),
-            c.time,
-            c.steps_done,
-            c.samples_taken
-        ));
-        if !out_dir.join("run.h5").exists() {
-            return Err(checkpoint::CheckpointError {
-                path: path.display().to_string(),
-                reason: format!(
-                    "the outputs of the run that wrote it are not in `{}`: resume into that \
-                     run's folder (without --out), or start a new run from it with --from",
-                    out_dir.display()
-                ),
-            }
-            .into());
-        }
-        checkpoint::take_over(
-            &path,
-            &c,
-            dem.as_mut(),
-            gas.as_mut(),
-            checkpoint::Use::Resume,
-        )?;
-        if c.threads != cfg.threads {
-            log.line(&format!(
-                "warning: the checkpoint ran on {} threads, this run on {}: the same physics, \
-                 not the same bits",
-                c.threads, cfg.threads
-            ));
-        }
-        sampling = c.sampling;
-        at = Progress {
-            steps_done: c.steps_done,
-            samples_taken: c.samples_taken,
-            snapshot_times: c.snapshot_times,
-            wall_before: c.wall_time_s,
+    let (mut sampling, mut at) =
+        match beginning.take_over(&out_dir, cfg.threads, dem.as_mut(), gas.as_mut(), &mut log)? {
+            Some(resumed) => resumed,
+            None => (Sampling::new(scene, &cfg), Progress::default()),
         };
-    }
     let f = &scene.file;
     let duration = opts.duration.unwrap_or(f.duration.si);
     let dt = dem.time_step();
@@ -290,19 +219,23 @@ pub fn run(scene: &Scene, opts: &RunOptions) -> Result<RunOutcome, RunError> {
         .output
         .checkpoint_interval
         .map(|c| ((c.si / (per_sample as Real * dt)).round() as u64).max(1));
-    let mut samples_taken = at.samples_taken;
-    let mut done = at.steps_done;
-    let mut snapshot_times = std::mem::take(&mut at.snapshot_times);
     let mut checkpointed_at = (at.steps_done > 0).then_some(at.steps_done);
     let mut failure = None;
     let mut room = crate::output::room::RoomGuard::new(&out_dir.join("run.h5"));
-    while done < total_steps {
+    let save_checkpoint = |dem: &dyn plugflow_coupling::DemBackend,
+                           gas: Option<&plugflow_coupling::Coupler>,
+                           sampling: &Sampling,
+                           at: &Progress| {
+        let wall_so_far = at.wall_before + wall.elapsed().as_secs_f64();
+        checkpoint::save(&out_dir, scene, dem, gas, sampling, at, wall_so_far)
+    };
+    while at.steps_done < total_steps {
         // Before the steps of the next sample: a run stopped for room ends where run.h5 does.
         if let Err(e) = room.check() {
             failure = Some(RunError::Output(e));
             break;
         }
-        let n = per_sample.min(total_steps - done);
+        let n = per_sample.min(total_steps - at.steps_done);
         // The step: the coupled one with gas, the DEM's alone without. With gas in pieces of
         // whole coupling intervals (the same steps as one call), so that Ctrl-C or SIGTERM is
         // seen within a piece, not only at the next sample; without gas one piece per sample
@@ -333,8 +266,8 @@ pub fn run(scene: &Scene, opts: &RunOptions) -> Result<RunOutcome, RunError> {
         }
         // (Interrupted inside the sample, `left > 0`: the sample is taken where the run
         // stopped, and the check below ends the run.)
-        done += n - left;
-        let snapshot_due = samples_per_snapshot.is_some_and(|k| samples_taken.is_multiple_of(k));
+        at.steps_done += n - left;
+        let snapshot_due = samples_per_snapshot.is_some_and(|k| at.samples_taken.is_multiple_of(k));
         let seen = match sampling.sample(
             &cfg,
             dem.as_ref(),
@@ -350,29 +283,15 @@ pub fn run(scene: &Scene, opts: &RunOptions) -> Result<RunOutcome, RunError> {
             }
         };
         if snapshot_due {
-            snapshot_times.push(dem.time());
+            at.snapshot_times.push(dem.time());
         }
-        samples_taken += 1;
-        if samples_per_checkpoint.is_some_and(|k| samples_taken.is_multiple_of(k)) {
-            let state = RunState {
-                steps_done: done,
-                samples_taken,
-                snapshot_times: &snapshot_times,
-                wall_time_s: at.wall_before + wall.elapsed().as_secs_f64(),
-            };
-            let saved = save_checkpoint(
-                &out_dir,
-                scene,
-                dem.as_ref(),
-                gas.as_ref(),
-                &sampling,
-                &state,
-            );
-            if let Err(e) = saved {
+        at.samples_taken += 1;
+        if samples_per_checkpoint.is_some_and(|k| at.samples_taken.is_multiple_of(k)) {
+            if let Err(e) = save_checkpoint(dem.as_ref(), gas.as_ref(), &sampling, &at) {
                 failure = Some(e);
                 break;
             }
-            checkpointed_at = Some(done);
+            checkpointed_at = Some(at.steps_done);
         }
         log.progress(
             dem.time(),
@@ -385,14 +304,14 @@ pub fn run(scene: &Scene, opts: &RunOptions) -> Result<RunOutcome, RunError> {
                     &seen,
                 )
             },
-            samples_taken == 1,
+            at.samples_taken == 1,
         );
         if INTERRUPT.load(std::sync::atomic::Ordering::Relaxed) {
             failure = Some(RunError::Interrupted { time: dem.time() });
             break;
         }
         if let Some(b) = &bar {
-            b.set_position(done);
+            b.set_position(at.steps_done);
             b.set_message(format!(
                 "t = {:.3}/{:.3} s, {} grains in tube{}",
                 dem.time(),
@@ -414,22 +333,8 @@ pub fn run(scene: &Scene, opts: &RunOptions) -> Result<RunOutcome, RunError> {
     let interrupted = matches!(failure, Some(RunError::Interrupted { .. }));
     let stopped_cleanly = failure.is_none() || interrupted;
     let asked = samples_per_checkpoint.is_some();
-    if (asked || interrupted) && stopped_cleanly && checkpointed_at != Some(done) {
-        let state = RunState {
-            steps_done: done,
-            samples_taken,
-            snapshot_times: &snapshot_times,
-            wall_time_s: at.wall_before + wall.elapsed().as_secs_f64(),
-        };
-        let saved = save_checkpoint(
-            &out_dir,
-            scene,
-            dem.as_ref(),
-            gas.as_ref(),
-            &sampling,
-            &state,
-        );
-        match saved {
+    if (asked || interrupted) && stopped_cleanly && checkpointed_at != Some(at.steps_done) {
+        match save_checkpoint(dem.as_ref(), gas.as_ref(), &sampling, &at) {
             Ok(path) => log.line(&format!(
                 "checkpoint `{}` at t = {} s",
                 path.display(),
@@ -534,57 +439,6 @@ pub fn run(scene: &Scene, opts: &RunOptions) -> Result<RunOutcome, RunError> {
             None => Ok(RunOutcome { summary, out_dir }),
         },
     }
-}
-
-/// Where a run starts: at zero, or where its checkpoint left off.
-#[derive(Default)]
-struct Progress {
-    steps_done: u64,
-    samples_taken: u64,
-    snapshot_times: Vec<Real>,
-    /// Wall time of the run before this process, s.
-    wall_before: f64,
-}
-
-/// The loop's counters at a checkpoint.
-struct RunState<'a> {
-    steps_done: u64,
-    samples_taken: u64,
-    snapshot_times: &'a [Real],
-    wall_time_s: f64,
-}
-
-/// Write a checkpoint of the run as it stands (between samples: no advance is under way).
-fn save_checkpoint(
-    out_dir: &Path,
-    scene: &Scene,
-    dem: &dyn plugflow_coupling::DemBackend,
-    gas: Option<&plugflow_coupling::Coupler>,
-    sampling: &Sampling,
-    state: &RunState,
-) -> Result<PathBuf, RunError> {
-    let failed = |reason: String| RunError::Io {
-        path: checkpoint::folder(out_dir).display().to_string(),
-        source: std::io::Error::other(format!("cannot take a checkpoint: {reason}")),
-    };
-    let c = checkpoint::Checkpoint {
-        plugflow_version: env!("CARGO_PKG_VERSION").to_string(),
-        scene_identity: checkpoint::scene_identity(scene),
-        engine: dem.engine_name().to_string(),
-        threads: scene.file.dem.threads,
-        time: dem.time(),
-        steps_done: state.steps_done,
-        samples_taken: state.samples_taken,
-        snapshot_times: state.snapshot_times.to_vec(),
-        wall_time_s: state.wall_time_s,
-        dem: dem.save_state().map_err(|e| failed(e.to_string()))?,
-        coupler: gas
-            .map(|g| g.save_state())
-            .transpose()
-            .map_err(|e| failed(e.to_string()))?,
-        sampling: sampling.clone(),
-    };
-    checkpoint::write(out_dir, &c)
 }
 
 fn progress_bar(total_steps: u64) -> indicatif::ProgressBar {

@@ -284,8 +284,6 @@ impl GasSolver for SimpleTubeGas {
         )
     }
 
-    /// One step of dt against two of dt/2 from the same state (the state restored after):
-    /// max |Δp| over max |p|.
     fn save_state(&self) -> Result<Vec<u8>, GasError> {
         let g = &self.gas;
         let state = SimpleState {
@@ -304,40 +302,34 @@ impl GasSolver for SimpleTubeGas {
             steps: self.steps,
             last_iterations: self.last_iterations,
         };
-        postcard::to_allocvec(&state).map_err(|e| GasError::State {
-            reason: format!("cannot encode the SIMPLE gas: {e}"),
-        })
+        crate::gas::encode_state(&state, "SIMPLE")
     }
 
     fn restore_state(&mut self, bytes: &[u8]) -> Result<(), GasError> {
-        let s: SimpleState = postcard::from_bytes(bytes).map_err(|e| GasError::State {
-            reason: format!("not a SIMPLE gas state: {e}"),
-        })?;
-        let g = &mut self.gas;
-        let (nodes, cells) = (self.grid.len(), g.geometry.cells());
-        let faces_fit = (0..3).all(|d| s.vel[d].len() == g.vel[d].len());
-        if s.nodes != nodes
-            || s.cells != cells
-            || !faces_fit
-            || [
+        let (nodes, cells) = (self.grid.len(), self.gas.geometry.cells());
+        let faces = self.gas.vel.each_ref().map(Vec::len);
+        let s: SimpleState = crate::gas::decode_state(bytes, "SIMPLE", |s: &SimpleState| {
+            let cell_fields = [
                 s.p.len(),
                 s.porosity.len(),
                 s.rho.len(),
                 s.grain_velocity.len(),
-            ]
-            .iter()
-            .any(|&l| l != cells)
-            || s.phi.len() != nodes
-            || s.node_p.len() != nodes
-        {
-            return Err(GasError::State {
-                reason: format!(
+            ];
+            let fits = s.nodes == nodes
+                && s.cells == cells
+                && s.vel.each_ref().map(Vec::len) == faces
+                && cell_fields.iter().all(|&l| l == cells)
+                && s.phi.len() == nodes
+                && s.node_p.len() == nodes;
+            (!fits).then(|| {
+                format!(
                     "written for a grid of {} nodes and {} cells, the scene's has {nodes} and \
                      {cells}",
                     s.nodes, s.cells
-                ),
-            });
-        }
+                )
+            })
+        })?;
+        let g = &mut self.gas;
         g.vel = s.vel;
         g.p = s.p;
         g.porosity = s.porosity;
@@ -353,6 +345,8 @@ impl GasSolver for SimpleTubeGas {
         Ok(())
     }
 
+    /// One step of dt against two of dt/2 from the same state (the state restored after):
+    /// max |Δp| over max |p|.
     fn step_doubling_error(
         &mut self,
         fields: &GranularFields,
