@@ -366,10 +366,10 @@ fn a_run_starts_from_another_runs_filled_tube() {
 fn a_sweep_rerun_skips_finished_variants_and_resumes_the_rest() {
     let scene = case("vertical_plug.toml");
     let out = fresh("sweep");
-    let sweep = |extra: &[&str]| {
+    let sweep_of = |scene: &str, extra: &[&str]| {
         let mut args = vec![
             "sweep",
-            &scene,
+            scene,
             "--vary",
             "contact.friction=0.3,0.5",
             "--duration",
@@ -382,6 +382,7 @@ fn a_sweep_rerun_skips_finished_variants_and_resumes_the_rest() {
         args.extend_from_slice(extra);
         plugflow(&args)
     };
+    let sweep = |extra: &[&str]| sweep_of(&scene, extra);
     let (code, text) = sweep(&[]);
     assert_eq!(code, 0, "{text}");
     let before = physics(&out.join("001"));
@@ -399,18 +400,7 @@ fn a_sweep_rerun_skips_finished_variants_and_resumes_the_rest() {
     let edited = out.with_extension("edited.toml");
     let text = std::fs::read_to_string(&scene).unwrap();
     std::fs::write(&edited, text.replacen("seed = 1", "seed = 2", 1)).unwrap();
-    let (code, text) = plugflow(&[
-        "sweep",
-        edited.to_str().unwrap(),
-        "--vary",
-        "contact.friction=0.3,0.5",
-        "--duration",
-        "0.05",
-        "--set",
-        INTERVAL,
-        "--out",
-        out.to_str().unwrap(),
-    ]);
+    let (code, text) = sweep_of(edited.to_str().unwrap(), &[]);
     assert_eq!(code, 0, "{text}");
     assert!(
         text.contains("start 000") && text.contains("start 001"),
