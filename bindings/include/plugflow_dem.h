@@ -12,7 +12,8 @@
  *  - pf_dem_abi_version() == PF_DEM_ABI_MAJOR << 16 | PF_DEM_ABI_MINOR. A loader refuses a
  *    library with another major; minors only add optional calls (a loader binds optional
  *    calls only when the library exports them).
- *  - Optional calls: pf_dem_set_implicit_drag, pf_dem_flow_get, pf_dem_check (since 1.1).
+ *  - Optional calls: pf_dem_set_implicit_drag, pf_dem_flow_get, pf_dem_check (since 1.1),
+ *    pf_dem_keep_log (1.2), pf_dem_save_state and pf_dem_restore_state (1.3).
  */
 #ifndef PLUGFLOW_DEM_H
 #define PLUGFLOW_DEM_H
@@ -25,7 +26,7 @@ extern "C" {
 #endif
 
 #define PF_DEM_ABI_MAJOR 1
-#define PF_DEM_ABI_MINOR 2
+#define PF_DEM_ABI_MINOR 3
 
 /* Status codes (fixed numbers; never renumbered). */
 #define PF_OK 0
@@ -127,6 +128,18 @@ pf_status pf_dem_flow_get(const pf_dem *dem, pf_dem_flow *flow);
 /* Optional (ABI 1.2). Keep the engine's own log in folder `dir` (UTF-8, len bytes, no NUL
  * needed) when it closes, instead of deleting it with its working files. */
 pf_status pf_dem_keep_log(pf_dem *dem, const char *dir, size_t len);
+
+/* Optional (ABI 1.3). The engine's whole state between two calls of pf_dem_advance, as
+ * bytes only this engine reads back (a checkpoint): *data points to *len bytes the engine
+ * owns, valid until the next call on dem. An engine that cannot save its state answers
+ * PF_ERR_UNSUPPORTED or PF_ERR_ENGINE with the reason. */
+pf_status pf_dem_save_state(pf_dem *dem, const uint8_t **data, size_t *len);
+
+/* Optional (ABI 1.3). Take back a state pf_dem_save_state wrote, on an engine created from
+ * the same scene: the run goes on from there (grains, contact histories, the engine's own
+ * feed and counters, its clock). PF_ERR_INVALID_ARGUMENT when the bytes are not such a
+ * state. */
+pf_status pf_dem_restore_state(pf_dem *dem, const uint8_t *data, size_t len);
 
 #ifdef __cplusplus
 }

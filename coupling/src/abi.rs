@@ -15,7 +15,7 @@ use crate::{Real, Vec3};
 /// ABI major version: a loader refuses a library with another major.
 pub const ABI_MAJOR: u32 = 1;
 /// ABI minor version: minors only add optional calls.
-pub const ABI_MINOR: u32 = 2;
+pub const ABI_MINOR: u32 = 3;
 /// `abi_version()` of this build: major << 16 | minor.
 pub const ABI_VERSION: u32 = (ABI_MAJOR << 16) | ABI_MINOR;
 
@@ -110,6 +110,8 @@ pub type ReadWallForcesFn = unsafe extern "C" fn(*const PfDem, usize, *mut f64) 
 pub type WallNameFn = unsafe extern "C" fn(*const PfDem, usize, *mut c_char, usize) -> i32;
 pub type FlowGetFn = unsafe extern "C" fn(*const PfDem, *mut PfDemFlow) -> i32;
 pub type KeepLogFn = unsafe extern "C" fn(*mut PfDem, *const c_char, usize) -> i32;
+pub type SaveStateFn = unsafe extern "C" fn(*mut PfDem, *mut *const u8, *mut usize) -> i32;
+pub type RestoreStateFn = unsafe extern "C" fn(*mut PfDem, *const u8, usize) -> i32;
 
 /// Every call of the ABI: (symbol, Rust type name of its pointer type, optional).
 /// The header test compares these with the prototypes of plugflow_dem.h.
@@ -152,6 +154,8 @@ pub fn declarations() -> Vec<(&'static str, &'static str, bool)> {
         ("pf_dem_wall_name", type_name::<WallNameFn>(), false),
         ("pf_dem_flow_get", type_name::<FlowGetFn>(), true),
         ("pf_dem_keep_log", type_name::<KeepLogFn>(), true),
+        ("pf_dem_save_state", type_name::<SaveStateFn>(), true),
+        ("pf_dem_restore_state", type_name::<RestoreStateFn>(), true),
     ]
 }
 
@@ -192,6 +196,8 @@ struct Calls {
     wall_name: WallNameFn,
     flow: Option<FlowGetFn>,
     keep_log: Option<KeepLogFn>,
+    save_state: Option<SaveStateFn>,
+    restore_state: Option<RestoreStateFn>,
 }
 
 /// A DEM engine behind the C ABI, loaded at run time.
@@ -334,6 +340,8 @@ impl AbiBackend {
             wall_name: required!("pf_dem_wall_name", WallNameFn),
             flow: optional!("pf_dem_flow_get", FlowGetFn),
             keep_log: optional!("pf_dem_keep_log", KeepLogFn),
+            save_state: optional!("pf_dem_save_state", SaveStateFn),
+            restore_state: optional!("pf_dem_restore_state", RestoreStateFn),
         };
         let mut handle: *mut PfDem = std::ptr::null_mut();
         // SAFETY: the text pointer and length describe `scene_json`; `handle` is writable.
@@ -432,6 +440,14 @@ impl AbiBackend {
         self.velocity = tri(&v);
         self.angular_velocity = tri(&w);
         Ok(())
+    }
+
+    /// The engine does not offer an optional call.
+    fn unsupported(&self, what: &str) -> BackendError {
+        BackendError::Engine {
+            engine: self.name.clone(),
+            message: format!("this engine's library cannot {what}"),
+        }
     }
 
     /// The engine's own feed and outflow counters, when it offers them.
@@ -639,6 +655,34 @@ impl DemBackend for AbiBackend {
         // SAFETY: live handle; the pointer and length describe `text`.
         let st = unsafe { f(self.handle, text.as_ptr() as *const c_char, text.len()) };
         self.check(st, "pf_dem_keep_log")
+    }
+
+    fn save_state(&mut self) -> Result<Vec<u8>, BackendError> {
+        let Some(f) = self.calls.save_state else {
+            return Err(self.unsupported("write checkpoints (pf_dem_save_state, ABI 1.3)"));
+        };
+        let (mut data, mut len) = (std::ptr::null::<u8>(), 0usize);
+        // SAFETY: live handle, valid out-pointers.
+        let st = unsafe { f(self.handle, &mut data, &mut len) };
+        self.check(st, "pf_dem_save_state")?;
+        if len == 0 {
+            return Ok(Vec::new());
+        }
+        if data.is_null() {
+            return Err(self.error(status::NULL, "pf_dem_save_state"));
+        }
+        // SAFETY: the engine owns `len` bytes at `data` until the next call on the handle.
+        Ok(unsafe { std::slice::from_raw_parts(data, len) }.to_vec())
+    }
+
+    fn restore_state(&mut self, state: &[u8]) -> Result<(), BackendError> {
+        let Some(f) = self.calls.restore_state else {
+            return Err(self.unsupported("resume from checkpoints (pf_dem_restore_state, ABI 1.3)"));
+        };
+        // SAFETY: live handle; the pointer and length describe `state`.
+        let st = unsafe { f(self.handle, state.as_ptr(), state.len()) };
+        self.check(st, "pf_dem_restore_state")?;
+        self.refresh()
     }
 
     fn flow(&self) -> Option<crate::backend::GrainFlow> {

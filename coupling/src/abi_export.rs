@@ -150,6 +150,9 @@ macro_rules! export_dem_abi {
             struct Handle {
                 engine: Box<dyn DemBackend>,
                 last_error: String,
+                /// The bytes of the last pf_dem_save_state (the caller reads them before
+                /// its next call).
+                saved: Vec<u8>,
             }
 
             impl ExportedEngine for Handle {
@@ -218,6 +221,7 @@ macro_rules! export_dem_abi {
                         let h = Box::new(Handle {
                             engine,
                             last_error: String::new(),
+                            saved: Vec::new(),
                         });
                         *out = Box::into_raw(h) as *mut PfDem;
                         status::OK
@@ -471,6 +475,35 @@ macro_rules! export_dem_abi {
                 })
             }
 
+            #[no_mangle]
+            pub unsafe extern "C" fn pf_dem_save_state(
+                dem: *mut PfDem,
+                data: *mut *const u8,
+                len: *mut usize,
+            ) -> i32 {
+                with_handle(dem, |h| {
+                    if data.is_null() || len.is_null() {
+                        return Err((status::NULL, "`data` or `len` is NULL".into()));
+                    }
+                    h.saved = h.engine.save_state().map_err(backend_failure)?;
+                    *data = h.saved.as_ptr();
+                    *len = h.saved.len();
+                    Ok(())
+                })
+            }
+
+            #[no_mangle]
+            pub unsafe extern "C" fn pf_dem_restore_state(
+                dem: *mut PfDem,
+                data: *const u8,
+                len: usize,
+            ) -> i32 {
+                with_handle(dem, |h| {
+                    let bytes = input(data, len, "data")?;
+                    h.engine.restore_state(bytes).map_err(backend_failure)
+                })
+            }
+
             /// The exports have exactly the loader's pointer types.
             const _: () = {
                 let _: abi::AbiVersionFn = pf_dem_abi_version;
@@ -487,6 +520,8 @@ macro_rules! export_dem_abi {
                 let _: abi::WallNameFn = pf_dem_wall_name;
                 let _: abi::FlowGetFn = pf_dem_flow_get;
                 let _: abi::KeepLogFn = pf_dem_keep_log;
+                let _: abi::SaveStateFn = pf_dem_save_state;
+                let _: abi::RestoreStateFn = pf_dem_restore_state;
                 let _: abi::CheckFn = pf_dem_check;
             };
         }

@@ -161,8 +161,10 @@ pub trait DemBackend {
     }
     /// The engine's whole state between two `advance` calls, as bytes only this engine
     /// reads back (a checkpoint): restoring it and advancing gives bit for bit what
-    /// advancing without the detour gives. Engines that cannot refuse, saying why.
-    fn save_state(&self) -> Result<Vec<u8>, BackendError> {
+    /// advancing without the detour gives (engines that restart through files of their own,
+    /// as LIGGGHTS does, go on with the same physics, not the same bits). `&mut`: writing
+    /// it may be a command to the engine. Engines that cannot refuse, saying why.
+    fn save_state(&mut self) -> Result<Vec<u8>, BackendError> {
         Err(BackendError::Engine {
             engine: self.engine_name().to_string(),
             message: "this engine cannot write checkpoints (`output.checkpoint_interval`)"

@@ -25,6 +25,10 @@ pub mod op {
     pub const INSERT: u8 = 4;
     pub const REMOVE: u8 = 5;
     pub const QUIT: u8 = 6;
+    /// The engine's state (a checkpoint): the ok reply carries the bytes before the state.
+    pub const SAVE: u8 = 7;
+    pub const RESTORE: u8 = 8;
+    pub const KEEP_LOG: u8 = 9;
 }
 
 /// Little-endian writer helpers.
@@ -48,6 +52,10 @@ pub trait WireWrite: Write {
             self.f64(*x)?;
         }
         Ok(())
+    }
+    fn blob(&mut self, b: &[u8]) -> std::io::Result<()> {
+        self.u64(b.len() as u64)?;
+        self.write_all(b)
     }
 }
 impl<W: Write> WireWrite for W {}
@@ -78,6 +86,12 @@ pub trait WireRead: Read {
     fn f64s(&mut self) -> std::io::Result<Vec<f64>> {
         let n = self.u64()? as usize;
         (0..n).map(|_| self.f64()).collect()
+    }
+    fn blob(&mut self) -> std::io::Result<Vec<u8>> {
+        let n = self.u64()? as usize;
+        let mut b = vec![0u8; n];
+        self.read_exact(&mut b)?;
+        Ok(b)
     }
 }
 impl<R: Read> WireRead for R {}
@@ -147,6 +161,8 @@ pub struct IsolatedBackend {
     flow: Option<GrainFlow>,
     walls: Vec<WallForce>,
     dead: Option<String>,
+    /// The bytes of the last SAVE reply.
+    saved: Vec<u8>,
     /// Wall time of the requests (the engine's work plus the pipe), by call.
     timer: crate::timing::StageTimer,
 }
@@ -195,6 +211,7 @@ impl IsolatedBackend {
             flow: None,
             walls: Vec::new(),
             dead: None,
+            saved: Vec::new(),
             timer: crate::timing::StageTimer::new(),
         };
         let lib = library.display().to_string();
@@ -284,6 +301,10 @@ impl IsolatedBackend {
                         .map(|_| r.u64())
                         .collect::<std::io::Result<Vec<_>>>()?,
                 )
+            }
+            2 => {
+                self.saved = r.blob()?;
+                None
             }
             _ => None,
         };
@@ -425,6 +446,25 @@ impl DemBackend for IsolatedBackend {
     fn flow(&self) -> Option<GrainFlow> {
         self.flow
     }
+    fn save_state(&mut self) -> Result<Vec<u8>, BackendError> {
+        self.request(|w| w.u8(op::SAVE))?;
+        Ok(std::mem::take(&mut self.saved))
+    }
+    fn keep_log(&mut self, dir: &Path) -> Result<(), BackendError> {
+        let dir = dir.display().to_string();
+        self.request(|w| {
+            w.u8(op::KEEP_LOG)?;
+            w.text(&dir)
+        })
+        .map(|_| ())
+    }
+    fn restore_state(&mut self, state: &[u8]) -> Result<(), BackendError> {
+        self.request(|w| {
+            w.u8(op::RESTORE)?;
+            w.blob(state)
+        })
+        .map(|_| ())
+    }
 }
 
 /// The host's loop: serve requests on stdin/stdout for an engine made by `create`.
@@ -471,6 +511,7 @@ pub fn serve(
         BackendError::InvalidArgument { .. } => 1,
         _ => 2,
     };
+    let mut saved = Vec::new();
     loop {
         let code = match r.u8() {
             Ok(c) => c,
@@ -499,12 +540,35 @@ pub fn serve(
                 engine.insert(&grains).map(Some)
             }
             op::REMOVE => engine.remove_past_outlet().map(|_| None),
+            op::SAVE => match engine.save_state() {
+                Ok(bytes) => {
+                    saved = bytes;
+                    Ok(None)
+                }
+                Err(e) => Err(e),
+            },
+            op::RESTORE => {
+                let bytes = r.blob()?;
+                engine.restore_state(&bytes).map(|_| None)
+            }
+            op::KEEP_LOG => {
+                let dir = r.text()?;
+                engine.keep_log(Path::new(&dir)).map(|_| None)
+            }
             op::QUIT => return Ok(()),
             other => {
                 return fail(&mut w, 2, &format!("unknown request {other}"));
             }
         };
         match result {
+            Ok(_) if code == op::SAVE => {
+                // The state's bytes (flag 2), then the engine's state as after every call.
+                w.u8(0)?;
+                w.u8(2)?;
+                w.blob(&std::mem::take(&mut saved))?;
+                write_state(&mut w, engine.as_ref())?;
+                w.flush()?
+            }
             Ok(ids) => ok(&mut w, engine.as_ref(), ids.as_deref())?,
             Err(e) => fail(&mut w, kind(&e), &e.to_string())?,
         }

@@ -442,7 +442,7 @@ impl Beginning {
 pub(super) fn save(
     out_dir: &Path,
     scene: &Scene,
-    dem: &dyn plugflow_coupling::DemBackend,
+    dem: &mut dyn plugflow_coupling::DemBackend,
     gas: Option<&plugflow_coupling::Coupler>,
     sampling: &Sampling,
     at: &Progress,

@@ -222,7 +222,7 @@ pub fn run(scene: &Scene, opts: &RunOptions) -> Result<RunOutcome, RunError> {
     let mut checkpointed_at = (at.steps_done > 0).then_some(at.steps_done);
     let mut failure = None;
     let mut room = crate::output::room::RoomGuard::new(&out_dir.join("run.h5"));
-    let save_checkpoint = |dem: &dyn plugflow_coupling::DemBackend,
+    let save_checkpoint = |dem: &mut dyn plugflow_coupling::DemBackend,
                            gas: Option<&plugflow_coupling::Coupler>,
                            sampling: &Sampling,
                            at: &Progress| {
@@ -287,7 +287,7 @@ pub fn run(scene: &Scene, opts: &RunOptions) -> Result<RunOutcome, RunError> {
         }
         at.samples_taken += 1;
         if samples_per_checkpoint.is_some_and(|k| at.samples_taken.is_multiple_of(k)) {
-            if let Err(e) = save_checkpoint(dem.as_ref(), gas.as_ref(), &sampling, &at) {
+            if let Err(e) = save_checkpoint(dem.as_mut(), gas.as_ref(), &sampling, &at) {
                 failure = Some(e);
                 break;
             }
@@ -334,7 +334,7 @@ pub fn run(scene: &Scene, opts: &RunOptions) -> Result<RunOutcome, RunError> {
     let stopped_cleanly = failure.is_none() || interrupted;
     let asked = samples_per_checkpoint.is_some();
     if (asked || interrupted) && stopped_cleanly && checkpointed_at != Some(at.steps_done) {
-        match save_checkpoint(dem.as_ref(), gas.as_ref(), &sampling, &at) {
+        match save_checkpoint(dem.as_mut(), gas.as_ref(), &sampling, &at) {
             Ok(path) => log.line(&format!(
                 "checkpoint `{}` at t = {} s",
                 path.display(),

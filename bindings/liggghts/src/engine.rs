@@ -69,6 +69,8 @@ pub struct Liggghts {
     workdir: PathBuf,
     /// Where the engine's log files go when it closes (`DemBackend::keep_log`).
     keep_log: Option<PathBuf>,
+    /// The scene runs a user's own input (`dem.liggghts_input`).
+    cfg_user_input: bool,
     pub flow: PfDemFlow,
     /// Grains created through pf_dem_insert (not counted as fed).
     inserted: std::collections::HashSet<u64>,
@@ -130,16 +132,7 @@ impl Liggghts {
                 return Err(format!("field `dem.liggghts_input`: {e}"));
             }
         }
-        let log = CString::new(workdir.join("log.liggghts").display().to_string())
-            .map_err(|e| e.to_string())?;
-        let screen = CString::new(workdir.join("screen.liggghts").display().to_string())
-            .map_err(|e| e.to_string())?;
-        let mut lmp = std::ptr::null_mut();
-        {
-            let _g = OPEN_CLOSE.lock().unwrap_or_else(|p| p.into_inner());
-            // SAFETY: valid C strings and out-pointer.
-            call(|e, l| unsafe { pfl_open(log.as_ptr(), screen.as_ptr(), &mut lmp, e, l) })?;
-        }
+        let lmp = Self::open(&workdir)?;
         let mut me = Self {
             lmp,
             mapped,
@@ -151,6 +144,7 @@ impl Liggghts {
             version: String::new(),
             workdir,
             keep_log: None,
+            cfg_user_input: user_input.is_some(),
             flow: PfDemFlow::default(),
             inserted: Default::default(),
             seen: Vec::new(),
@@ -161,22 +155,41 @@ impl Liggghts {
             radius: Vec::new(),
             mass: Vec::new(),
         };
-        for c in me.mapped.commands.clone() {
-            me.command(&c)?;
+        me.feeds = me.cfg.inlet.is_some() || user_input.is_some();
+        me.start(Start::Fresh(initial))?;
+        Ok(me)
+    }
+
+    /// Feed the mapped input to the open instance and set it up: a new bed (the scene's
+    /// initial grains inserted), or the grains of a restart file in place of `create_box`.
+    fn start(&mut self, how: Start) -> Result<(), EngineError> {
+        let how_restarted = matches!(how, Start::Restart(_));
+        for c in self.mapped.commands.clone() {
+            match (&how, c.as_str()) {
+                (Start::Restart(path), CREATE_BOX) => {
+                    self.command(&format!("read_restart {}", path.display()))?
+                }
+                _ => self.command(&c)?,
+            }
         }
-        if let Some((x, v)) = initial {
-            let r = vec![me.mapped.grain_radius; x.len()];
-            let rho = vec![me.mapped.grain_density; x.len()];
-            me.insert(&x, &v, &r, &rho)?;
+        if let Start::Fresh(Some((x, v))) = how {
+            let r = vec![self.mapped.grain_radius; x.len()];
+            let rho = vec![self.mapped.grain_density; x.len()];
+            self.insert(&x, &v, &r, &rho)?;
         }
-        me.refresh()?;
+        self.refresh()?;
         // The banner LIGGGHTS printed on opening: switching to a second log file closes
         // (and so flushes) the first.
-        let log2 = me.workdir.join("log2.liggghts").display().to_string();
-        me.command(&format!("log {log2}"))?;
-        me.version = ["log.liggghts"]
+        // (A restored instance goes on with the same file: what it said while reading the
+        // restart file, e.g. which fixes took their state back, stays in it.)
+        let log2 = self.workdir.join("log2.liggghts").display().to_string();
+        match how_restarted {
+            true => self.command(&format!("log {log2} append"))?,
+            false => self.command(&format!("log {log2}"))?,
+        }
+        self.version = ["log.liggghts"]
             .iter()
-            .filter_map(|f| std::fs::read_to_string(me.workdir.join(f)).ok())
+            .filter_map(|f| std::fs::read_to_string(self.workdir.join(f)).ok())
             .find_map(|s| {
                 s.lines()
                     .find_map(|l| l.strip_prefix("LIGGGHTS (Version "))
@@ -185,12 +198,97 @@ impl Liggghts {
             .unwrap_or_else(|| "unknown version (no banner in LIGGGHTS's output)".into());
         // LIGGGHTS refuses to set up a granular run before it knows a grain type: with
         // no grains and no inlet, setup waits for the first inserted grain.
-        me.feeds = me.cfg.inlet.is_some() || user_input.is_some();
-        if !me.ids.is_empty() || me.feeds {
-            me.command("run 0")?;
-            me.needs_setup = false;
+        if !self.ids.is_empty() || self.feeds {
+            self.command("run 0")?;
+            self.needs_setup = false;
         }
-        Ok(me)
+        Ok(())
+    }
+
+    /// Open a LIGGGHTS instance writing its log and screen output into the working folder.
+    fn open(workdir: &std::path::Path) -> Result<*mut c_void, EngineError> {
+        let log = CString::new(workdir.join("log.liggghts").display().to_string())
+            .map_err(|e| e.to_string())?;
+        let screen = CString::new(workdir.join("screen.liggghts").display().to_string())
+            .map_err(|e| e.to_string())?;
+        let mut lmp = std::ptr::null_mut();
+        let _g = OPEN_CLOSE.lock().unwrap_or_else(|p| p.into_inner());
+        // SAFETY: valid C strings and out-pointer.
+        call(|e, l| unsafe { pfl_open(log.as_ptr(), screen.as_ptr(), &mut lmp, e, l) })?;
+        Ok(lmp)
+    }
+
+    /// Close the instance (once: the handle is nulled).
+    fn close(&mut self) {
+        if self.lmp.is_null() {
+            return;
+        }
+        let _g = OPEN_CLOSE.lock().unwrap_or_else(|p| p.into_inner());
+        // SAFETY: a live instance, closed once.
+        let _ = call(|e, l| unsafe { pfl_close(self.lmp, e, l) });
+        self.lmp = std::ptr::null_mut();
+    }
+
+    /// The state between two advances (see [`SavedState`]): LIGGGHTS's own restart file
+    /// (grains, contact and wall histories in the per-atom data of their fixes, the
+    /// insertion fix's counters, the fluid force of the last exchange in `pf_extf`) and
+    /// plugflow's mirrors of it.
+    pub fn save(&mut self) -> Result<Vec<u8>, EngineError> {
+        self.refuse_user_input()?;
+        let path = self.workdir.join("checkpoint.restart");
+        self.command(&format!("write_restart {}", path.display()))?;
+        let restart = std::fs::read(&path).map_err(|e| format!("{}: {e}", path.display()))?;
+        let _ = std::fs::remove_file(&path);
+        Ok(SavedState {
+            steps: self.steps,
+            flow: self.flow,
+            inserted: {
+                let mut v: Vec<u64> = self.inserted.iter().copied().collect();
+                v.sort_unstable();
+                v
+            },
+            seen: self.seen.clone(),
+            restart,
+        }
+        .encode())
+    }
+
+    /// Go on from a state [`Liggghts::save`] wrote: this instance is closed and a new one
+    /// reads the restart file in place of `create_box`; the scene's other commands (laws,
+    /// walls, the inlet's fixes under the same ids, so LIGGGHTS hands them their restart
+    /// data) follow as in a new run.
+    pub fn restore(&mut self, bytes: &[u8]) -> Result<(), EngineError> {
+        self.refuse_user_input()?;
+        let st = SavedState::decode(bytes)?;
+        let path = self.workdir.join("resume.restart");
+        std::fs::write(&path, &st.restart).map_err(|e| format!("{}: {e}", path.display()))?;
+        // `clear` empties the instance (atoms, fixes, settings) but keeps it and its log:
+        // a second instance in this process would register LIGGGHTS's styles again and
+        // warn about each on stderr.
+        self.command("clear")?;
+        self.steps = st.steps;
+        self.time = st.steps as f64 * self.cfg.dt;
+        self.flow = st.flow;
+        self.inserted = st.inserted.into_iter().collect();
+        self.seen = st.seen;
+        self.needs_setup = true;
+        let started = self.start(Start::Restart(path.clone()));
+        let _ = std::fs::remove_file(&path);
+        started
+    }
+
+    /// A user's own input builds its box and grains with its own commands (and may read
+    /// its own restart files): plugflow cannot put a restart file in their place.
+    fn refuse_user_input(&self) -> Result<(), EngineError> {
+        if self.cfg_user_input {
+            return Err(
+                "field `output.checkpoint_interval`: checkpoints of a user's own \
+                        LIGGGHTS input (`dem.liggghts_input`) are not supported; use LIGGGHTS's \
+                        own `write_restart` in the input, or the scene's mapping"
+                    .into(),
+            );
+        }
+        Ok(())
     }
 
     /// One input line.
@@ -578,9 +676,7 @@ fn preflight(dir: &std::path::Path, commands: &[String]) -> Result<(), String> {
 
 impl Drop for Liggghts {
     fn drop(&mut self) {
-        let _g = OPEN_CLOSE.lock().unwrap_or_else(|p| p.into_inner());
-        // SAFETY: the instance is closed once.
-        let _ = call(|e, l| unsafe { pfl_close(self.lmp, e, l) });
+        self.close();
         // The run asked to keep LIGGGHTS's own log: beside its other outputs.
         if let Some(dir) = &self.keep_log {
             for f in ["log.liggghts", "log2.liggghts"] {
@@ -588,6 +684,106 @@ impl Drop for Liggghts {
             }
         }
         let _ = std::fs::remove_dir_all(&self.workdir);
+    }
+}
+
+/// The mapped input's `create_box` line, which a restart file takes the place of.
+const CREATE_BOX: &str = "create_box 2 pf_box";
+
+/// Grains placed by plugflow: positions and velocities.
+type Placed = (Vec<[f64; 3]>, Vec<[f64; 3]>);
+
+/// How [`Liggghts::start`] gets its grains.
+enum Start {
+    /// A new bed: the scene's initial grains, if any.
+    Fresh(Option<Placed>),
+    /// The grains of a LIGGGHTS restart file.
+    Restart(PathBuf),
+}
+
+/// What a LIGGGHTS checkpoint holds: the restart file LIGGGHTS wrote and plugflow's side
+/// of the engine (its step count, feed and outflow counters, which grains it inserted and
+/// which it has seen, so the resumed run counts the feed as the straight one does).
+/// Bytes: `MAGIC | steps u64 | flow (u64 f64 u64 f64 u64) | n u64, inserted ids u64 × n |
+/// m u64, seen words u64 × m | k u64, restart file k bytes`, little-endian.
+struct SavedState {
+    steps: u64,
+    flow: PfDemFlow,
+    inserted: Vec<u64>,
+    seen: Vec<u64>,
+    restart: Vec<u8>,
+}
+
+impl SavedState {
+    const MAGIC: &'static [u8; 8] = b"PFLGHTS1";
+
+    fn encode(&self) -> Vec<u8> {
+        let mut b = Vec::with_capacity(self.restart.len() + 8 * (self.seen.len() + 16));
+        b.extend_from_slice(Self::MAGIC);
+        let u = |v: u64, b: &mut Vec<u8>| b.extend_from_slice(&v.to_le_bytes());
+        u(self.steps, &mut b);
+        let f = &self.flow;
+        u(f.fed_count, &mut b);
+        u(f.fed_mass.to_bits(), &mut b);
+        u(f.outflow_count, &mut b);
+        u(f.outflow_mass.to_bits(), &mut b);
+        u(f.lost_count, &mut b);
+        for list in [&self.inserted, &self.seen] {
+            u(list.len() as u64, &mut b);
+            for &v in list {
+                u(v, &mut b);
+            }
+        }
+        u(self.restart.len() as u64, &mut b);
+        b.extend_from_slice(&self.restart);
+        b
+    }
+
+    fn decode(bytes: &[u8]) -> Result<Self, EngineError> {
+        let bad = |what: &str| format!("not a LIGGGHTS engine state: {what}");
+        if bytes.len() < 8 || &bytes[..8] != Self::MAGIC {
+            return Err(bad("no LIGGGHTS header (written by another engine?)"));
+        }
+        let mut at = 8;
+        let mut u = || -> Result<u64, EngineError> {
+            let w = bytes
+                .get(at..at + 8)
+                .ok_or_else(|| bad("cut short"))?
+                .try_into()
+                .expect("8 bytes");
+            at += 8;
+            Ok(u64::from_le_bytes(w))
+        };
+        let steps = u()?;
+        let flow = PfDemFlow {
+            fed_count: u()?,
+            fed_mass: f64::from_bits(u()?),
+            outflow_count: u()?,
+            outflow_mass: f64::from_bits(u()?),
+            lost_count: u()?,
+        };
+        let mut list = || -> Result<Vec<u64>, EngineError> {
+            let n = u()? as usize;
+            if n > bytes.len() / 8 {
+                return Err(bad("a list longer than the state"));
+            }
+            (0..n).map(|_| u()).collect()
+        };
+        let inserted = list()?;
+        let seen = list()?;
+        let k = u()? as usize;
+        let restart = bytes
+            .get(at..)
+            .filter(|r| r.len() == k)
+            .ok_or_else(|| bad("the restart file is cut short"))?
+            .to_vec();
+        Ok(Self {
+            steps,
+            flow,
+            inserted,
+            seen,
+            restart,
+        })
     }
 }
 
@@ -689,6 +885,12 @@ impl DemBackend for Liggghts {
     }
     fn stage_times(&self) -> Vec<(String, f64)> {
         Vec::new()
+    }
+    fn save_state(&mut self) -> Result<Vec<u8>, BackendError> {
+        self.save().map_err(engine_error)
+    }
+    fn restore_state(&mut self, state: &[u8]) -> Result<(), BackendError> {
+        self.restore(state).map_err(engine_error)
     }
     fn flow(&self) -> Option<GrainFlow> {
         let f = &self.flow;

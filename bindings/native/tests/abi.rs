@@ -73,6 +73,7 @@ fn rust_type(c: &str) -> String {
         "char" => "i8",
         "double" => "f64",
         "uint64_t" => "u64",
+        "uint8_t" => "u8",
         "uint32_t" => "u32",
         "int32_t" | "pf_status" => "i32",
         "size_t" => "usize",

@@ -866,7 +866,7 @@ impl DemBackend for NativeDem {
         )
     }
 
-    fn save_state(&self) -> Result<Vec<u8>, BackendError> {
+    fn save_state(&mut self) -> Result<Vec<u8>, BackendError> {
         checkpoint::save(self)
     }
 

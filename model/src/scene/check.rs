@@ -62,12 +62,22 @@ pub(super) fn check(f: &SceneFile) -> Result<(), SceneError> {
                 ),
             ));
         }
-        if f.dem.engine != "native" {
+        // The built-in engine saves its own state; LIGGGHTS through its restart files
+        // (the scene's mapping only: a user's own input builds its box its own way).
+        if f.dem.engine == "liggghts" && f.dem.liggghts_input.is_some() {
+            return Err(field_err(
+                "output.checkpoint_interval",
+                "checkpoints of a user's own LIGGGHTS input (`dem.liggghts_input`) are not \
+                 supported (plugflow cannot put a restart file in place of the input's own \
+                 box and grains); use `write_restart` in the input, or drop the field",
+            ));
+        }
+        if !matches!(f.dem.engine.as_str(), "native" | "liggghts") {
             return Err(field_err(
                 "output.checkpoint_interval",
                 format!(
-                    "the `{}` engine cannot write checkpoints yet (only the built-in \
-                     `native` engine can); drop the field or run on `native`",
+                    "the `{}` engine cannot write checkpoints (the built-in `native` engine \
+                     and `liggghts` can); drop the field or run on one of those",
                     f.dem.engine
                 ),
             ));
