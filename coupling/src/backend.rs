@@ -178,7 +178,10 @@ pub trait DemBackend {
     fn start_from_state(&mut self, _state: &[u8]) -> Result<(), BackendError> {
         Err(BackendError::Engine {
             engine: self.engine_name().to_string(),
-            message: "this engine cannot start from checkpoints".to_string(),
+            message: "this engine cannot start a new run from a checkpoint's grains \
+                      (`--from`; the built-in engine can); resume the run that wrote it with \
+                      `--resume`"
+                .to_string(),
         })
     }
     /// Take back a state [`DemBackend::save_state`] wrote (an engine built from the same
