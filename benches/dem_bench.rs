@@ -3,9 +3,10 @@
 //! no contact history). Prints particle-steps per second for each and, last,
 //! `ratio native/liggghts: X` (one core each). Not a test: numbers depend on the machine.
 //!
-//! cargo bench --bench dem_bench [-- --steps N] [--repeat R] [--native-only]
+//! cargo bench --bench dem_bench [-- --steps N] [--repeat R] [--native-only | --bridge-only]
 //! (`--repeat R`: time each engine R times, report the medians; `--native-only`: the
-//! built-in DEM's one-thread timing alone, for profiling it)
+//! built-in DEM's one-thread timing alone, for profiling it; `--bridge-only`: only the
+//! engines through the ABI, one advance against exchanges of `--chunk` steps, default 50)
 
 use std::path::Path;
 use std::process::Command;
@@ -32,6 +33,15 @@ fn main() {
         .and_then(|k| args.get(k + 1))
         .and_then(|s| s.parse().ok())
         .unwrap_or(1)
+        .max(1);
+    // Steps per exchange in the ABI bridge timing (a coupled run's coupling interval;
+    // fewer steps per exchange weigh the exchange's own cost more).
+    let chunk: u64 = args
+        .iter()
+        .position(|a| a == "--chunk")
+        .and_then(|k| args.get(k + 1))
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(50)
         .max(1);
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));
     let scene_path = root.join("cases/bench_bed.toml");
@@ -91,32 +101,39 @@ fn main() {
         let rates = (0..repeat).map(|_| native_once(threads)).collect();
         median(&format!("{threads} threads"), rates)
     };
-    let n1 = native(1);
-    println!("native 1 thread : {:.3e} particle-steps/s", n1);
+    let bridge_only = args.iter().any(|a| a == "--bridge-only");
+    let n1 = if bridge_only { f64::NAN } else { native(1) };
+    if !bridge_only {
+        println!("native 1 thread : {:.3e} particle-steps/s", n1);
+    }
     if args.iter().any(|a| a == "--native-only") {
         return;
     }
-    let n2 = native(2);
-    println!(
-        "native 2 threads: {:.3e} particle-steps/s ({:.2}x its one-thread speed)",
-        n2,
-        n2 / n1
-    );
+    let ratio = if bridge_only {
+        None
+    } else {
+        let n2 = native(2);
+        println!(
+            "native 2 threads: {:.3e} particle-steps/s ({:.2}x its one-thread speed)",
+            n2,
+            n2 / n1
+        );
 
-    // 3. LIGGGHTS from Debian's package on the same bed.
-    // As often as the built-in DEM, median likewise, so both sides of the ratio see the
-    // machine's noise alike.
-    let liggghts_rates: Result<Vec<f64>, String> =
-        (0..repeat).map(|_| liggghts(&work, &bed, steps)).collect();
-    let liggghts_median = liggghts_rates.map(|rates| median("liggghts", rates));
-    let ratio = match liggghts_median {
-        Ok(l) => {
-            println!("liggghts 1 proc : {:.3e} particle-steps/s", l);
-            Some(n1 / l)
-        }
-        Err(e) => {
-            println!("liggghts: not measured ({e})");
-            None
+        // 3. LIGGGHTS from Debian's package on the same bed.
+        // As often as the built-in DEM, median likewise, so both sides of the ratio see the
+        // machine's noise alike.
+        let liggghts_rates: Result<Vec<f64>, String> =
+            (0..repeat).map(|_| liggghts(&work, &bed, steps)).collect();
+        let liggghts_median = liggghts_rates.map(|rates| median("liggghts", rates));
+        match liggghts_median {
+            Ok(l) => {
+                println!("liggghts 1 proc : {:.3e} particle-steps/s", l);
+                Some(n1 / l)
+            }
+            Err(e) => {
+                println!("liggghts: not measured ({e})");
+                None
+            }
         }
     };
 
@@ -145,19 +162,39 @@ fn main() {
             );
             continue;
         }
-        let (single, chunked, exchanges) = match bridge(&lib, &bed_scene, &bed, steps / 2, 50) {
+        // `repeat` pairs (one advance, then the same steps in exchanges), each pair's
+        // overhead from its own two timings; medians of the pairs.
+        let pairs: Result<Vec<(f64, f64, u64)>, String> = (0..repeat)
+            .map(|_| bridge(&lib, &bed_scene, &bed, steps / 2, chunk))
+            .collect();
+        let pairs = match pairs {
             Ok(t) => t,
             Err(e) => {
                 println!("{engine} through the ABI: not measured ({e}; {build})");
                 continue;
             }
         };
+        let exchanges = pairs[0].2;
+        let work_done = bed.len() as f64 * (steps / 2) as f64;
+        let single = median(
+            &format!("{engine} one advance"),
+            pairs.iter().map(|p| work_done / p.0).collect(),
+        );
+        let chunked = median(
+            &format!("{engine} in exchanges"),
+            pairs.iter().map(|p| work_done / p.1).collect(),
+        );
+        let overhead = median(
+            &format!("{engine} overhead µs"),
+            pairs
+                .iter()
+                .map(|p| (p.1 - p.0) / exchanges as f64 * 1e6)
+                .collect(),
+        );
         println!(
-            "{engine} through the ABI: {:.3e} particle-steps/s in one advance; \
-             {:.3e} in {exchanges} exchanges of 50 steps; overhead {:.1} µs per exchange",
-            bed.len() as f64 * (steps / 2) as f64 / single,
-            bed.len() as f64 * (steps / 2) as f64 / chunked,
-            (chunked - single) / exchanges as f64 * 1e6
+            "{engine} through the ABI: {single:.3e} particle-steps/s in one advance; \
+             {chunked:.3e} in {exchanges} exchanges of {chunk} steps; overhead {overhead:.1} µs \
+             per exchange"
         );
     }
     match ratio {
