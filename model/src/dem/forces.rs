@@ -472,8 +472,8 @@ fn wall_contacts<N: NormalLaw, T: TangentialLaw, S: Sizes>(
     let sc = out.scratch;
     let nw = set.walls.len();
     for (w, wall) in set.walls.iter().enumerate() {
-        // Grains [lo, hi) of the wall's near list; all others are more than half a skin
-        // away and their histories with it already zero.
+        // Grains [lo, hi) of the wall's near list; all others were a skin or more away at
+        // the build, have drifted less since, and their histories with it are already zero.
         let near = &near_wall[w];
         let (a, b) = (
             near.partition_point(|&i| (i as usize) < lo),

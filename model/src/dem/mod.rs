@@ -1,7 +1,8 @@
 //! The built-in DEM: soft spheres, velocity-Verlet, cell list with Verlet skin.
 //!
-//! One step (see [`NativeDem::advance`]): half kick + drift → neighbour rebuild when a grain
-//! moved half the skin (or grains were added/removed) → forces → half kick. Every few steps
+//! One step (see [`NativeDem::advance`]): half kick + drift → neighbour rebuild when the two
+//! largest drifts since the last one add up to the skin (or grains were added/removed) →
+//! forces → half kick. Every few steps
 //! the inlet feeds a batch and grains past an open end leave. Each stage is timed.
 
 mod checkpoint;
@@ -94,7 +95,7 @@ pub struct NativeDem {
     /// Chunk boundaries (active chunks + 1 entries), fixed between neighbour builds.
     bounds: Vec<usize>,
     /// The grains that may leave before the next neighbour build: closer to a leaving
-    /// boundary than one skin at the last build (grains move less than half a skin between
+    /// boundary than one skin at the last build (no grain drifts a whole skin between
     /// builds). Valid from a build until grains are added or removed.
     may_leave: Vec<u32>,
     /// Per chunk: the verdict of the last integration pass.
@@ -234,6 +235,12 @@ impl NativeDem {
                     .map(|i| i as u32),
             );
         }
+        self.cut_chunks();
+    }
+
+    /// The threads' chunks of the grains, cut by the list's work per grain.
+    fn cut_chunks(&mut self) {
+        let n = self.state.len();
         let chunks = self.cfg.threads.min((n / MIN_GRAINS_PER_CHUNK).max(1));
         if chunks > 1 {
             cut_by_cost(&self.nlist.cost, chunks, &mut self.bounds);
@@ -275,7 +282,7 @@ impl NativeDem {
     }
 
     /// Remove grains past open ends, outside the box, or escaped from the tube. `near_build`:
-    /// every grain is within half a skin of where it was at the last neighbour build, and no
+    /// every grain is within one skin of where it was at the last neighbour build, and no
     /// grain was added or removed since: then only [`NativeDem::may_leave`]'s can have left.
     fn remove_leaving(&mut self, near_build: bool) -> Real {
         let n = self.state.len();
@@ -306,10 +313,25 @@ impl NativeDem {
                 Leave::Lost => self.flow.lost_count += 1,
             }
         }
+        let nw = self.cfg.walls.len();
+        // Between builds the list is cut down to the grains that stay (a build re-sorts
+        // every grain and searches every cell: grains leave ~1000 times a second at the
+        // vertical case's outlet, as often as the drifts call for builds).
+        if near_build && self.nlist.retain(&keep, n) {
+            self.state.permute(&keep, nw);
+            let new_index = self.nlist.retained_index();
+            self.may_leave.retain_mut(|i| {
+                *i = new_index[*i as usize];
+                *i != u32::MAX
+            });
+            self.cut_chunks();
+            // The dashpots' velocities, as after a build (the grains were renumbered).
+            self.predict_velocities(true);
+            return out_mass;
+        }
         if self.cfg.laws.uses_history() {
             self.nlist.stash_history(&self.state);
         }
-        let nw = self.cfg.walls.len();
         self.state.permute(&keep, nw);
         self.rebuild_pending = true;
         out_mass
@@ -375,8 +397,8 @@ impl NativeDem {
         }
     }
 
-    /// One integration phase over all chunks: all speeds sane, and whether some grain moved
-    /// more than half the skin since the last neighbour build.
+    /// One integration phase over all chunks: all speeds sane, and the two largest drifts
+    /// since the last neighbour build (see [`ChunkVerdict::moved_far`]).
     fn integrate(&mut self, team: &Team, phase: Phase) -> ChunkVerdict {
         let (finish, start) = phase.parts();
         let kind = PassKind {
@@ -384,7 +406,6 @@ impl NativeDem {
             finish,
             start,
             rotation: self.cfg.rotation,
-            rebuild_distance2: 0.25 * self.cfg.skin * self.cfg.skin,
         };
         let s = &mut self.state;
         let x_ref = self.nlist.reference_positions();
@@ -490,7 +511,8 @@ impl NativeDem {
             self.timer.add("forces", t0.elapsed().as_secs_f64());
         }
         let t0 = Instant::now();
-        let mut moved_far = self.integrate(team, Phase::KickDrift).moved_far;
+        let skin = self.cfg.skin;
+        let mut moved_far = self.integrate(team, Phase::KickDrift).moved_far(skin);
         self.timer.add("integrate", t0.elapsed().as_secs_f64());
         for k in 0..steps {
             self.time += dt;
@@ -525,7 +547,7 @@ impl NativeDem {
             if !verdict.sane {
                 return Err(self.blowup_error());
             }
-            moved_far = verdict.moved_far;
+            moved_far = verdict.moved_far(skin);
         }
         Ok(())
     }

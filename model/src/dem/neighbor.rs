@@ -1,8 +1,8 @@
 //! Cell-list neighbour search with a Verlet skin.
 //!
 //! The half list holds every pair (i, j > i) closer than r_i + r_j + skin; it is rebuilt only
-//! when some grain has moved more than half the skin since the last build (then no pair can
-//! have come into contact unseen). At each build the grains are re-sorted by cell so that
+//! when the two largest drifts since the last build add up to more than the skin (until then
+//! no pair can have come into contact unseen: a pair closes by at most its two drifts). At each build the grains are re-sorted by cell so that
 //! neighbours sit close in memory, and the tangential history of every live contact is
 //! carried over by the grains' stable ids.
 
@@ -35,7 +35,7 @@ impl RowScratch {
     /// contacts (the laws: ~7 pair tests each), its wall contacts (~6) and its own
     /// integration (~2); the weights are the bench's stage times (`cargo bench --bench
     /// dem_bench`) over its counts. Contacts at the build stand for the contacts until the
-    /// next, as grains move less than half the skin in between. Weighing pairs alone left
+    /// next, as grains drift less than the skin in between. Weighing pairs alone left
     /// the dense bottom of a bed 12 % more work than the top.
     #[allow(clippy::too_many_arguments)]
     fn build(
@@ -268,8 +268,8 @@ impl NeighborList {
         Ok(())
     }
 
-    /// Positions at the last build (empty before the first); a grain that has moved more
-    /// than half the skin from here calls for a rebuild.
+    /// Positions at the last build (empty before the first): the drifts that call for a
+    /// rebuild are measured from here.
     pub fn reference_positions(&self) -> &[Vec3] {
         &self.x_at_build
     }
@@ -441,6 +441,67 @@ impl NeighborList {
         }
     }
 
+    /// Keep only the grains `keep` (ascending old indices; grain `keep[k]` becomes grain k)
+    /// without a new build: the rows and partners of the kept grains renumbered, their
+    /// histories, wall lists, costs and build positions with them. The order of the kept
+    /// grains does not change, so every pair keeps j > i and the list stays what a build at
+    /// the last build's positions would have listed for them. Returns false (nothing
+    /// changed) when the list does not match the current grains; then rebuild instead.
+    pub fn retain(&mut self, keep: &[usize], grains: usize) -> bool {
+        if !self.valid || self.start.len() != grains + 1 || self.x_at_build.len() != grains {
+            return false;
+        }
+        const GONE: u32 = u32::MAX;
+        let new_index = &mut self.index_of_id;
+        new_index.clear();
+        new_index.resize(grains, GONE);
+        for (k, &i) in keep.iter().enumerate() {
+            new_index[i] = k as u32;
+        }
+        let with_history = self.history.len() == self.partner.len();
+        let mut out = 0usize;
+        let mut new_start = Vec::with_capacity(keep.len() + 1);
+        new_start.push(0u32);
+        for &i in keep {
+            for k in self.start[i] as usize..self.start[i + 1] as usize {
+                let j = new_index[self.partner[k] as usize];
+                if j != GONE {
+                    // In place: `out` never passes `k`.
+                    self.partner[out] = j;
+                    if with_history {
+                        self.history[out] = self.history[k];
+                    }
+                    out += 1;
+                }
+            }
+            new_start.push(out as u32);
+        }
+        self.partner.truncate(out);
+        if with_history {
+            self.history.truncate(out);
+        }
+        self.start = new_start;
+        for near in &mut self.near_wall {
+            near.retain_mut(|i| {
+                *i = new_index[*i as usize];
+                *i != GONE
+            });
+        }
+        for (k, &i) in keep.iter().enumerate() {
+            self.cost[k] = self.cost[i];
+            self.x_at_build[k] = self.x_at_build[i];
+        }
+        self.cost.truncate(keep.len());
+        self.x_at_build.truncate(keep.len());
+        true
+    }
+
+    /// The new index of each old grain after the last [`NeighborList::retain`]
+    /// (`u32::MAX`: removed).
+    pub fn retained_index(&self) -> &[u32] {
+        &self.index_of_id
+    }
+
     /// Save the shear history of every live contact by grain ids. Call before grains are
     /// added, removed or reordered; the next [`NeighborList::rebuild`] restores it.
     pub fn stash_history(&mut self, state: &ParticleState) {
@@ -463,5 +524,89 @@ impl NeighborList {
             }
         }
         self.valid = false;
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::dem::walls::WallShape;
+    use crate::rng::Rng;
+
+    /// (id pairs, their histories) of a list, as sorted (smaller id, larger id) keys.
+    fn pairs(l: &NeighborList, s: &ParticleState) -> Vec<((u64, u64), Vec3)> {
+        let mut v = Vec::new();
+        for i in 0..s.len() {
+            for k in l.start[i] as usize..l.start[i + 1] as usize {
+                let (a, b) = (s.id[i], s.id[l.partner[k] as usize]);
+                let h = l.history.get(k).copied().unwrap_or([0.0; 3]);
+                v.push(if a < b {
+                    ((a, b), h)
+                } else {
+                    ((b, a), [-h[0], -h[1], -h[2]])
+                });
+            }
+        }
+        v.sort_by(|x, y| x.0.cmp(&y.0));
+        v
+    }
+
+    /// Grains leaving between builds: the list cut down by `retain` is the list a build at
+    /// the last build's positions lists for the grains that stay (the same pairs, by id, with
+    /// the same histories), and so are the wall lists and the build positions.
+    #[test]
+    fn retain_equals_a_build_of_the_grains_that_stay() {
+        let mut rng = Rng::new(7);
+        let walls = vec![Wall {
+            name: "floor".into(),
+            shape: WallShape::Plane {
+                point: [0.0, 0.0, 0.0],
+                normal: [0.0, 0.0, 1.0],
+            },
+            friction: None,
+        }];
+        let mut s = ParticleState::default();
+        for id in 0..400u64 {
+            let x = std::array::from_fn(|_| 0.02 * rng.uniform());
+            s.push(id, x, [0.0; 3], 1e-3, 1000.0, walls.len());
+        }
+        let (skin, team) = (3e-4, Team::new(1));
+        let grid = CellGrid::new([0.0; 3], [0.02; 3], 2e-3 + skin);
+        let mut list = NeighborList::default();
+        list.rebuild(&mut s, &grid, skin, &walls, true, &team);
+        // Histories on every pair, distinct, so that a misplaced one shows.
+        for (k, h) in list.history.iter_mut().enumerate() {
+            *h = [k as Real, 1.0, -(k as Real)];
+        }
+        // (After the build the grains lie in cell order: pick them by id.)
+        let keep: Vec<usize> = (0..s.len()).filter(|&i| s.id[i] % 3 != 1).collect();
+        let mut kept = s.clone();
+        kept.permute(&keep, walls.len());
+        let expected: Vec<((u64, u64), Vec3)> = pairs(&list, &s)
+            .into_iter()
+            .filter(|((a, b), _)| a % 3 != 1 && b % 3 != 1)
+            .collect();
+        let ids_of = |l: &[u32], st: &ParticleState| {
+            let mut v: Vec<u64> = l.iter().map(|&i| st.id[i as usize]).collect();
+            v.sort_unstable();
+            v
+        };
+        let near_expected: Vec<u64> = ids_of(&list.near_wall[0], &s)
+            .into_iter()
+            .filter(|id| id % 3 != 1)
+            .collect();
+        assert!(list.retain(&keep, s.len()));
+        assert_eq!(list.start.len(), kept.len() + 1);
+        assert_eq!(pairs(&list, &kept), expected);
+        assert_eq!(ids_of(&list.near_wall[0], &kept), near_expected);
+        assert_eq!(list.reference_positions(), &kept.position[..]);
+        // A fresh build of the grains that stay, where they stood: the same pairs.
+        let mut fresh = NeighborList::default();
+        let mut again = kept.clone();
+        fresh.rebuild(&mut again, &grid, skin, &walls, false, &team);
+        let unkeyed = |v: Vec<((u64, u64), Vec3)>| v.into_iter().map(|p| p.0).collect::<Vec<_>>();
+        assert_eq!(unkeyed(pairs(&fresh, &again)), unkeyed(expected));
+        // A list that no longer matches the grains refuses (and changes nothing).
+        assert!(!list.retain(&[0, 1], kept.len() + 5));
     }
 }
