@@ -547,7 +547,7 @@ mod tests {
                 });
             }
         }
-        v.sort_by(|x, y| x.0.cmp(&y.0));
+        v.sort_by_key(|p| p.0);
         v
     }
 
