@@ -25,7 +25,12 @@ use faer::sparse::{SparseColMat, Triplet};
 use faer::{Mat, Side};
 use plugflow_coupling::{GasError, GasSolver, GasStepReport, GranularFields, TubeGrid};
 
+use super::banded::BandCholesky;
 use crate::{Real, Vec3};
+
+/// Widest half-bandwidth the band factorisation takes (n b² flops against the sparse
+/// factorisation's bookkeeping: a tube grid of up to 4 × 4 nodes across).
+const BAND_MAX: usize = 16;
 
 /// Time scheme.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -113,6 +118,9 @@ pub struct DarcyGas {
     storage: Vec<Real>,
     source: Vec<Real>,
     symbolic: Option<SymbolicLlt<usize>>,
+    /// The band factorisation, when the grid's system is narrow (a tube's: half-bandwidth
+    /// one cross-section); the general sparse one otherwise.
+    band: Option<BandCholesky>,
     /// The system matrix of the last step, and where each entry of [`DarcyGas::entries`]
     /// sits in its values: the pattern never changes, so later steps write the values in
     /// place instead of assembling (sorting) triplets again.
@@ -185,6 +193,7 @@ impl DarcyGas {
             storage: vec![0.0; n],
             source: vec![0.0; n],
             symbolic: None,
+            band: None,
             matrix: None,
             steps: 0,
             grid,
@@ -324,6 +333,30 @@ impl DarcyGas {
     ) -> Result<Vec<Real>, String> {
         let n = rhs.len();
         let values = self.entries(diag, w);
+        if self.band.is_none() && self.matrix.is_none() {
+            let b = self
+                .entry_positions()
+                .map(|(r, c)| r - c)
+                .max()
+                .unwrap_or(0);
+            if b <= BAND_MAX {
+                self.band = Some(BandCholesky::new(n, b));
+            }
+        }
+        if self.band.is_some() {
+            let positions: Vec<(usize, usize)> = self.entry_positions().collect();
+            let band = self.band.as_mut().expect("checked");
+            band.set(positions.into_iter().zip(values.iter().copied()))?;
+            band.factor()?;
+            let mut x = rhs.to_vec();
+            band.solve_in_place(&mut x);
+            let mut residual = self.residual(diag, w, rhs, &x);
+            self.band
+                .as_ref()
+                .expect("set above")
+                .solve_in_place(&mut residual);
+            return Ok((0..n).map(|i| x[i] + residual[i]).collect());
+        }
         if self.matrix.is_none() {
             // The pattern once, from triplets; then where each entry landed, read off a
             // matrix whose values are the entries' own indices (every entry is distinct).
@@ -364,16 +397,24 @@ impl DarcyGas {
         // One step of iterative refinement: the stiff systems (conductances 1e5 × storage/dt)
         // leave ~1e-10 relative round-off after one solve; refinement brings the gas mass
         // balance back to ~1e-14.
-        let mut residual = Mat::<Real>::from_fn(n, 1, |i, _| {
-            rhs[i] - (diag[i] + w * self.c_out[i]) * x[(i, 0)]
-        });
-        for (e, c) in self.edges.iter().zip(&self.cond) {
-            let f = w * c * (x[(e.a, 0)] - x[(e.b, 0)]);
-            residual[(e.a, 0)] -= f;
-            residual[(e.b, 0)] += f;
-        }
+        let xs: Vec<Real> = (0..n).map(|i| x[(i, 0)]).collect();
+        let r = self.residual(diag, w, rhs, &xs);
+        let mut residual = Mat::<Real>::from_fn(n, 1, |i, _| r[i]);
         llt.solve_in_place(residual.as_mut());
-        Ok((0..n).map(|i| x[(i, 0)] + residual[(i, 0)]).collect())
+        Ok((0..n).map(|i| xs[i] + residual[(i, 0)]).collect())
+    }
+
+    /// rhs − (diag + w (L + outflow)) x.
+    fn residual(&self, diag: &[Real], w: Real, rhs: &[Real], x: &[Real]) -> Vec<Real> {
+        let mut r: Vec<Real> = (0..x.len())
+            .map(|i| rhs[i] - (diag[i] + w * self.c_out[i]) * x[i])
+            .collect();
+        for (e, c) in self.edges.iter().zip(&self.cond) {
+            let f = w * c * (x[e.a] - x[e.b]);
+            r[e.a] -= f;
+            r[e.b] += f;
+        }
+        r
     }
 
     /// Solve (diag + w L_d) x = rhs along the lines of direction `d`, with one step of

@@ -2,6 +2,7 @@
 //! `darcy` (McNamara–Flekkøy pressure diffusion, seeds 000 and 002) and `simple`
 //! (volume-averaged Navier–Stokes, seed 004; 2D).
 
+pub mod banded;
 pub mod darcy;
 pub mod simple;
 
