@@ -77,7 +77,7 @@ impl BandCholesky {
                     s -= self.band[self.at(i, k)] * self.band[self.at(j, k)];
                 }
                 let v = if j == i {
-                    if !(s > 0.0) {
+                    if s.is_nan() || s <= 0.0 {
                         return Err(format!(
                             "band Cholesky: pivot {s:e} at row {i} (not positive definite)"
                         ));

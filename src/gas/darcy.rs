@@ -343,19 +343,21 @@ impl DarcyGas {
                 self.band = Some(BandCholesky::new(n, b));
             }
         }
-        if self.band.is_some() {
-            let positions: Vec<(usize, usize)> = self.entry_positions().collect();
-            let band = self.band.as_mut().expect("checked");
-            band.set(positions.into_iter().zip(values.iter().copied()))?;
-            band.factor()?;
-            let mut x = rhs.to_vec();
-            band.solve_in_place(&mut x);
-            let mut residual = self.residual(diag, w, rhs, &x);
-            self.band
-                .as_ref()
-                .expect("set above")
-                .solve_in_place(&mut residual);
-            return Ok((0..n).map(|i| x[i] + residual[i]).collect());
+        // (Taken out while in use, so that the grid's entries and residual can be read.)
+        if let Some(mut band) = self.band.take() {
+            let solved = band
+                .set(self.entry_positions().zip(values.iter().copied()))
+                .and_then(|_| band.factor())
+                .map(|_| {
+                    let mut x = rhs.to_vec();
+                    band.solve_in_place(&mut x);
+                    // One step of iterative refinement, as below.
+                    let mut residual = self.residual(diag, w, rhs, &x);
+                    band.solve_in_place(&mut residual);
+                    (0..n).map(|i| x[i] + residual[i]).collect()
+                });
+            self.band = Some(band);
+            return solved;
         }
         if self.matrix.is_none() {
             // The pattern once, from triplets; then where each entry landed, read off a
