@@ -109,12 +109,20 @@ impl RowScratch {
     }
 }
 
-/// Uniform grid of cells over the simulation box.
+/// Uniform grid of cells over the simulation box. Cells are numbered with the box's
+/// longest direction slowest (`axes`): grains sorted by cell then lie in slices across
+/// it, so the threads' contiguous ranges of grains are slices of a tube along its axis
+/// and few pairs cross from one to the next. (Numbered x fastest, a horizontal pipe along
+/// x was cut into a lower and an upper layer: most pairs of the resting layer crossed, and
+/// two threads ran its slug slower than one.)
 #[derive(Debug, Clone)]
 pub struct CellGrid {
     lo: Vec3,
     inv_cell: Real,
+    /// Cells along `axes[0]` (fastest), `axes[1]`, `axes[2]` (slowest).
     dims: [usize; 3],
+    /// The lab direction (0 = x, 1 = y, 2 = z) of each cell coordinate, fastest first.
+    axes: [usize; 3],
 }
 
 impl CellGrid {
@@ -135,18 +143,27 @@ impl CellGrid {
         let width = (0..3)
             .map(|k| (hi[k] - lo[k]) / dims[k] as Real)
             .fold(Real::INFINITY, Real::min);
+        // The direction with the most cells slowest (z on a tie), the others in order.
+        let slowest = (0..3).max_by_key(|&k| dims[k]).expect("three axes");
+        let mut axes = [0usize; 3];
+        let mut rest = (0..3).filter(|&k| k != slowest);
+        axes[0] = rest.next().expect("two others");
+        axes[1] = rest.next().expect("two others");
+        axes[2] = slowest;
         Self {
             lo,
             inv_cell: 1.0 / width.max(cell),
-            dims,
+            dims: axes.map(|k| dims[k]),
+            axes,
         }
     }
 
+    /// Cell coordinates of a point, fastest first (see `axes`).
     #[inline]
     fn coord(&self, x: Vec3) -> [usize; 3] {
         let mut c = [0usize; 3];
-        for k in 0..3 {
-            let f = ((x[k] - self.lo[k]) * self.inv_cell).floor();
+        for (k, &a) in self.axes.iter().enumerate() {
+            let f = ((x[a] - self.lo[a]) * self.inv_cell).floor();
             // Grains outside the box are clamped into the edge cells (monotone, so close
             // grains stay in the same or adjacent cells).
             c[k] = if f <= 0.0 || f.is_nan() {
@@ -549,6 +566,26 @@ mod tests {
         }
         v.sort_by_key(|p| p.0);
         v
+    }
+
+    /// The box's longest direction is the slowest cell coordinate (the others keep their
+    /// order), so cells, and the grains sorted by them, come in slices across a tube.
+    #[test]
+    fn cells_are_numbered_with_the_longest_direction_slowest() {
+        let along_x = CellGrid::new([0.0; 3], [1.0, 0.01, 0.01], 2e-3);
+        assert_eq!(along_x.axes, [1, 2, 0]);
+        assert_eq!(along_x.dims, [5, 5, 500]);
+        let along_z = CellGrid::new([0.0; 3], [0.01, 0.01, 1.0], 2e-3);
+        assert_eq!(along_z.axes, [0, 1, 2]);
+        let cube = CellGrid::new([0.0; 3], [0.01; 3], 2e-3);
+        assert_eq!(cube.axes, [0, 1, 2], "a tie keeps z slowest");
+        // Two points a cell apart along the pipe: their cells a whole slice (5 × 5) apart.
+        let (a, b) = ([0.5, 0.005, 0.005], [0.5021, 0.005, 0.005]);
+        let (ia, ib) = (
+            along_x.index(along_x.coord(a)),
+            along_x.index(along_x.coord(b)),
+        );
+        assert_eq!(ib - ia, 25);
     }
 
     /// Grains leaving between builds: the list cut down by `retain` is the list a build at
