@@ -406,10 +406,15 @@ fn c_frozen_bed_with_gas() {
 
 /// (d) The vertical plug case for 1 s on every engine (each with its own inlet at the same
 /// mass flow: random insertion in the lowest 2 cm). After 1 s the tube holds the first
-/// ~500 grains resting on the closed end under gas drag; Δp (averaged over the last 0.2 s)
-/// and grains in the tube within 15 %, the band for engines' different random
-/// feeds. The case's regularised Coulomb law has no YADE counterpart (its viscous shear is
-/// never capped by μ|F_n|), so all three run it with the history law here.
+/// ~500 grains resting on the closed end under gas drag. Grains in the tube within 2 %
+/// (below); Δp averaged over the last 0.2 s within 30 %: the built-in engine's own
+/// seed-to-seed scatter of this number, seeds 1–8 of this run (native, one thread, history
+/// law; measured 2026-12-03): mean 388 Pa/m, s.d. 10.5 % (346–447 Pa/m). Two independent
+/// runs differ by up to 2σ√2 ≈ 30 % with no error in either engine. (The band was 15 %, set
+/// from the feed, not from this scatter: seed 1 at 359 Pa/m, low in its own spread, then
+/// fell outside it against YADE's 445 after a change of summation order alone.) The case's
+/// regularised Coulomb law has no YADE counterpart (its viscous shear is never capped by
+/// μ|F_n|), so all three run it with the history law here.
 #[test]
 fn d_vertical_plug_first_second() {
     let _g = SERIAL.lock().unwrap_or_else(|p| p.into_inner());
@@ -477,7 +482,7 @@ fn d_vertical_plug_first_second() {
             "grains fed: native {nn} vs {engine} {ne}"
         );
         assert!(
-            (dn - de).abs() / dn < 0.15,
+            (dn - de).abs() / dn < 0.30,
             "Δp native {dn} vs {engine} {de}"
         );
     }
@@ -489,9 +494,11 @@ fn d_vertical_plug_first_second() {
 /// run (`plugflow sweep cases/horizontal_slug.toml --vary seed=1,…,8 --duration 1 --set
 /// contact.tangential=history`, measured on this machine): grains fed 513 in every seed;
 /// the grains' mean position along the axis over the last 0.2 s 2.66 cm, s.d. 3.2 %; Δp
-/// over the last 0.2 s 0.82 hPa/m, s.d. 13 %. Two independent runs differ by up to
-/// 2σ√2 (9 % and 37 %) with no error in either engine: those are the bands; grains fed
-/// as in (d), 2 %.
+/// over the last 0.2 s 0.82 hPa/m, s.d. 13 %. Measured again 2026-12-03 after the cells
+/// were numbered along the pipe (the same physics in another summation order): position
+/// 2.71 cm, s.d. 4.2 % (2.59–2.90 cm); Δp 0.78 hPa/m, s.d. 10 %. Two independent runs
+/// differ by up to 2σ√2 with no error in either engine; with the larger σ of each: 12 %
+/// and 37 %, the bands; grains fed as in (d), 2 %.
 #[test]
 fn e_horizontal_slug_first_second() {
     let _g = SERIAL.lock().unwrap_or_else(|p| p.into_inner());
@@ -560,7 +567,7 @@ fn e_horizontal_slug_first_second() {
             "grains fed: native {nn} vs {engine} {ne}"
         );
         assert!(
-            (an - ae).abs() / an < 0.09,
+            (an - ae).abs() / an < 0.12,
             "mean position along the axis: native {an} vs {engine} {ae} m"
         );
         assert!(

@@ -579,6 +579,30 @@ mod tests {
         assert_eq!(along_z.axes, [0, 1, 2]);
         let cube = CellGrid::new([0.0; 3], [0.01; 3], 2e-3);
         assert_eq!(cube.axes, [0, 1, 2], "a tie keeps z slowest");
+        // The list of grains in a pipe along x is every pair within reach (brute force).
+        let mut rng = Rng::new(11);
+        let mut s = ParticleState::default();
+        for id in 0..600u64 {
+            let x = [rng.uniform(), 0.01 * rng.uniform(), 0.01 * rng.uniform()];
+            s.push(id, x, [0.0; 3], 1e-3, 1000.0, 0);
+        }
+        let skin = 2e-4;
+        let grid = CellGrid::new([0.0; 3], [1.0, 0.01, 0.01], 2e-3 + skin);
+        let mut list = NeighborList::default();
+        list.rebuild(&mut s, &grid, skin, &[], false, &Team::new(1));
+        let listed: Vec<(u64, u64)> = pairs(&list, &s).into_iter().map(|p| p.0).collect();
+        let mut brute = Vec::new();
+        for i in 0..s.len() {
+            for j in i + 1..s.len() {
+                if norm2(sub(s.position[i], s.position[j])) < (2e-3 + skin) * (2e-3 + skin) {
+                    let (a, b) = (s.id[i], s.id[j]);
+                    brute.push((a.min(b), a.max(b)));
+                }
+            }
+        }
+        brute.sort_unstable();
+        assert!(!brute.is_empty());
+        assert_eq!(listed, brute);
         // Two points a cell apart along the pipe: their cells a whole slice (5 × 5) apart.
         let (a, b) = ([0.5, 0.005, 0.005], [0.5021, 0.005, 0.005]);
         let (ia, ib) = (
