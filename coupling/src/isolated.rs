@@ -4,8 +4,8 @@
 //! exit status and last words, and the run that drove it stops cleanly with what it has.
 //!
 //! Protocol (little-endian): a request is an opcode byte and its arguments; the reply is a
-//! status byte (0 ok, 1 error + message) and, after every successful request, the engine's
-//! whole state (time step, time, steps, name, version, grains, flow, walls), which this
+//! status byte (0 ok, 1 error + message) and, after every successful request, a [`Payload`]
+//! (inserted ids, a saved state) and the engine's whole state (time step, time, steps, name, version, grains, flow, walls), which this
 //! side mirrors like [`crate::abi::AbiBackend`] does.
 
 use std::io::{BufReader, BufWriter, Read, Write};
@@ -25,10 +25,20 @@ pub mod op {
     pub const INSERT: u8 = 4;
     pub const REMOVE: u8 = 5;
     pub const QUIT: u8 = 6;
-    /// The engine's state (a checkpoint): the ok reply carries the bytes before the state.
+    /// The engine's state (a checkpoint): the ok reply carries its bytes.
     pub const SAVE: u8 = 7;
     pub const RESTORE: u8 = 8;
     pub const KEEP_LOG: u8 = 9;
+}
+
+/// What an ok reply carries before the engine's state (flag 0, 1, 2 on the wire).
+#[derive(Debug)]
+pub enum Payload {
+    Nothing,
+    /// The ids an INSERT gave.
+    Ids(Vec<u64>),
+    /// The engine's state a SAVE wrote.
+    Bytes(Vec<u8>),
 }
 
 /// Little-endian writer helpers.
@@ -161,8 +171,6 @@ pub struct IsolatedBackend {
     flow: Option<GrainFlow>,
     walls: Vec<WallForce>,
     dead: Option<String>,
-    /// The bytes of the last SAVE reply.
-    saved: Vec<u8>,
     /// Wall time of the requests (the engine's work plus the pipe), by call.
     timer: crate::timing::StageTimer,
 }
@@ -211,7 +219,6 @@ impl IsolatedBackend {
             flow: None,
             walls: Vec::new(),
             dead: None,
-            saved: Vec::new(),
             timer: crate::timing::StageTimer::new(),
         };
         let lib = library.display().to_string();
@@ -258,7 +265,7 @@ impl IsolatedBackend {
     fn request(
         &mut self,
         write: impl FnOnce(&mut BufWriter<ChildStdin>) -> std::io::Result<()>,
-    ) -> Result<Option<Vec<u64>>, BackendError> {
+    ) -> Result<Payload, BackendError> {
         if let Some(m) = &self.dead {
             return Err(BackendError::Engine {
                 engine: self.name.clone(),
@@ -275,9 +282,8 @@ impl IsolatedBackend {
         }
     }
 
-    /// Ok(Ok(ids of an insert)) / Ok(Err(engine error)) / Err(pipe broken).
-    #[allow(clippy::type_complexity)]
-    fn read_reply(&mut self) -> std::io::Result<Result<Option<Vec<u64>>, BackendError>> {
+    /// Ok(Ok(what the reply carried)) / Ok(Err(engine error)) / Err(pipe broken).
+    fn read_reply(&mut self) -> std::io::Result<Result<Payload, BackendError>> {
         let r = &mut self.from;
         if r.u8()? != 0 {
             let kind = r.u8()?;
@@ -293,20 +299,17 @@ impl IsolatedBackend {
                 },
             }));
         }
-        let ids = match r.u8()? {
+        let payload = match r.u8()? {
             1 => {
                 let n = r.u64()? as usize;
-                Some(
+                Payload::Ids(
                     (0..n)
                         .map(|_| r.u64())
                         .collect::<std::io::Result<Vec<_>>>()?,
                 )
             }
-            2 => {
-                self.saved = r.blob()?;
-                None
-            }
-            _ => None,
+            2 => Payload::Bytes(r.blob()?),
+            _ => Payload::Nothing,
         };
         self.dt = r.f64()?;
         self.time = r.f64()?;
@@ -341,7 +344,7 @@ impl IsolatedBackend {
             });
         }
         self.walls = walls;
-        Ok(Ok(ids))
+        Ok(Ok(payload))
     }
 }
 
@@ -430,7 +433,10 @@ impl DemBackend for IsolatedBackend {
             w.u8(op::INSERT)?;
             w.f64s(&grains)
         })
-        .map(|ids| ids.unwrap_or_default())
+        .map(|p| match p {
+            Payload::Ids(ids) => ids,
+            _ => Vec::new(),
+        })
     }
     fn remove_past_outlet(&mut self) -> Result<Real, BackendError> {
         let before = self.flow.map_or(0.0, |f| f.outflow_mass);
@@ -447,8 +453,13 @@ impl DemBackend for IsolatedBackend {
         self.flow
     }
     fn save_state(&mut self) -> Result<Vec<u8>, BackendError> {
-        self.request(|w| w.u8(op::SAVE))?;
-        Ok(std::mem::take(&mut self.saved))
+        match self.request(|w| w.u8(op::SAVE))? {
+            Payload::Bytes(bytes) => Ok(bytes),
+            other => Err(BackendError::Engine {
+                engine: self.name.clone(),
+                message: format!("the engine host answered SAVE without a state ({other:?})"),
+            }),
+        }
     }
     fn keep_log(&mut self, dir: &Path) -> Result<(), BackendError> {
         let dir = dir.display().to_string();
@@ -491,40 +502,43 @@ pub fn serve(
         Ok(e) => e,
         Err(m) => return fail(&mut w, 2, &m),
     };
-    let ok = |w: &mut BufWriter<_>, e: &dyn DemBackend, ids: Option<&[u64]>| {
+    let ok = |w: &mut BufWriter<_>, e: &dyn DemBackend, payload: &Payload| {
         w.u8(0)?;
-        match ids {
-            Some(ids) => {
+        match payload {
+            Payload::Nothing => w.u8(0)?,
+            Payload::Ids(ids) => {
                 w.u8(1)?;
                 w.u64(ids.len() as u64)?;
                 for id in ids {
                     w.u64(*id)?;
                 }
             }
-            None => w.u8(0)?,
+            Payload::Bytes(bytes) => {
+                w.u8(2)?;
+                w.blob(bytes)?;
+            }
         }
         write_state(w, e)?;
         w.flush()
     };
-    ok(&mut w, engine.as_ref(), None)?;
+    ok(&mut w, engine.as_ref(), &Payload::Nothing)?;
     let kind = |e: &BackendError| match e {
         BackendError::InvalidArgument { .. } => 1,
         _ => 2,
     };
-    let mut saved = Vec::new();
     loop {
         let code = match r.u8() {
             Ok(c) => c,
             Err(_) => return Ok(()), // the parent went away
         };
-        let result: Result<Option<Vec<u64>>, BackendError> = match code {
+        let result: Result<Payload, BackendError> = match code {
             op::ADVANCE => {
                 let n = r.u64()?;
-                engine.advance(n).map(|_| None)
+                engine.advance(n).map(|_| Payload::Nothing)
             }
             op::SET_FORCES => {
                 let f = tri(&r.f64s()?);
-                engine.set_fluid_forces(&f, None).map(|_| None)
+                engine.set_fluid_forces(&f, None).map(|_| Payload::Nothing)
             }
             op::INSERT => {
                 let g = r.f64s()?;
@@ -537,23 +551,17 @@ pub fn serve(
                         density: c[7],
                     })
                     .collect();
-                engine.insert(&grains).map(Some)
+                engine.insert(&grains).map(Payload::Ids)
             }
-            op::REMOVE => engine.remove_past_outlet().map(|_| None),
-            op::SAVE => match engine.save_state() {
-                Ok(bytes) => {
-                    saved = bytes;
-                    Ok(None)
-                }
-                Err(e) => Err(e),
-            },
+            op::REMOVE => engine.remove_past_outlet().map(|_| Payload::Nothing),
+            op::SAVE => engine.save_state().map(Payload::Bytes),
             op::RESTORE => {
                 let bytes = r.blob()?;
-                engine.restore_state(&bytes).map(|_| None)
+                engine.restore_state(&bytes).map(|_| Payload::Nothing)
             }
             op::KEEP_LOG => {
                 let dir = r.text()?;
-                engine.keep_log(Path::new(&dir)).map(|_| None)
+                engine.keep_log(Path::new(&dir)).map(|_| Payload::Nothing)
             }
             op::QUIT => return Ok(()),
             other => {
@@ -561,15 +569,7 @@ pub fn serve(
             }
         };
         match result {
-            Ok(_) if code == op::SAVE => {
-                // The state's bytes (flag 2), then the engine's state as after every call.
-                w.u8(0)?;
-                w.u8(2)?;
-                w.blob(&std::mem::take(&mut saved))?;
-                write_state(&mut w, engine.as_ref())?;
-                w.flush()?
-            }
-            Ok(ids) => ok(&mut w, engine.as_ref(), ids.as_deref())?,
+            Ok(payload) => ok(&mut w, engine.as_ref(), &payload)?,
             Err(e) => fail(&mut w, kind(&e), &e.to_string())?,
         }
     }

@@ -169,6 +169,8 @@ impl DarcyGas {
             }
         }
         let n = grid.len();
+        // The system couples only nodes joined by an edge: its half-bandwidth.
+        let half_bandwidth = edges.iter().map(|e| e.a.abs_diff(e.b)).max().unwrap_or(0);
         let (nz, nx, ny) = (grid.nz, grid.nx, grid.ny);
         let lines = [
             (0..nx * ny)
@@ -193,7 +195,7 @@ impl DarcyGas {
             storage: vec![0.0; n],
             source: vec![0.0; n],
             symbolic: None,
-            band: None,
+            band: (half_bandwidth <= BAND_MAX).then(|| BandCholesky::new(n, half_bandwidth)),
             matrix: None,
             steps: 0,
             grid,
@@ -333,16 +335,6 @@ impl DarcyGas {
     ) -> Result<Vec<Real>, String> {
         let n = rhs.len();
         let values = self.entries(diag, w);
-        if self.band.is_none() && self.matrix.is_none() {
-            let b = self
-                .entry_positions()
-                .map(|(r, c)| r - c)
-                .max()
-                .unwrap_or(0);
-            if b <= BAND_MAX {
-                self.band = Some(BandCholesky::new(n, b));
-            }
-        }
         // (Taken out while in use, so that the grid's entries and residual can be read.)
         if let Some(mut band) = self.band.take() {
             let solved = band

@@ -70,7 +70,7 @@ pub struct Liggghts {
     /// Where the engine's log files go when it closes (`DemBackend::keep_log`).
     keep_log: Option<PathBuf>,
     /// The scene runs a user's own input (`dem.liggghts_input`).
-    cfg_user_input: bool,
+    user_input_given: bool,
     pub flow: PfDemFlow,
     /// Grains created through pf_dem_insert (not counted as fed).
     inserted: std::collections::HashSet<u64>,
@@ -144,7 +144,7 @@ impl Liggghts {
             version: String::new(),
             workdir,
             keep_log: None,
-            cfg_user_input: user_input.is_some(),
+            user_input_given: user_input.is_some(),
             flow: PfDemFlow::default(),
             inserted: Default::default(),
             seen: Vec::new(),
@@ -280,7 +280,7 @@ impl Liggghts {
     /// A user's own input builds its box and grains with its own commands (and may read
     /// its own restart files): plugflow cannot put a restart file in their place.
     fn refuse_user_input(&self) -> Result<(), EngineError> {
-        if self.cfg_user_input {
+        if self.user_input_given {
             return Err(
                 "field `output.checkpoint_interval`: checkpoints of a user's own \
                         LIGGGHTS input (`dem.liggghts_input`) are not supported; use LIGGGHTS's \
