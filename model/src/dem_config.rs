@@ -3,14 +3,14 @@
 //! with a field error. (The engine itself, `dem/`, reads only this configuration.)
 
 use crate::dem::config::{
-    open_cross_section, DemConfig, InitialConfig, InletConfig, LawSet, TangentialChoice,
-    TangentialSet, TimeStepReport, TubeGeometry,
+    open_cross_section, DemConfig, InitialConfig, InletConfig, LawSet, RollingSet,
+    TangentialChoice, TangentialSet, TimeStepReport, TubeGeometry,
 };
-use crate::dem::contact::{Hertz, Hooke};
+use crate::dem::contact::{ConstantTorque, Hertz, Hooke, RollingPair};
 use crate::dem::placement::{perpendicular_basis, Region};
 use crate::dem::vec3::{add, normalized, scale};
 use crate::dem::walls::{Wall, WallShape};
-use crate::scene::{NormalLawName, Scene, SceneError, TangentialLawName, TubeEnd};
+use crate::scene::{NormalLawName, RollingLawName, Scene, SceneError, TangentialLawName, TubeEnd};
 use crate::{Real, Vec3};
 use std::f64::consts::PI;
 
@@ -73,6 +73,7 @@ pub fn dem_config(scene: &Scene) -> Result<DemConfig, SceneError> {
         gravity: [f.gravity[0].si, f.gravity[1].si, f.gravity[2].si],
         walls,
         laws,
+        rolling: rolling_law(scene),
         box_lo,
         box_hi,
         tube,
@@ -129,6 +130,23 @@ fn contact_laws(scene: &Scene, g: &Grains) -> LawSet {
         }
     };
     laws
+}
+
+/// `contact.rolling` → the rolling law, grain–grain and grain–wall (values checked in
+/// `scene::check`).
+fn rolling_law(scene: &Scene) -> RollingSet {
+    let c = &scene.file.contact;
+    match c.rolling {
+        RollingLawName::None => RollingSet::None,
+        RollingLawName::ConstantTorque => {
+            let pp = c.rolling_friction.map(|m| m.0).unwrap_or(0.0);
+            let pw = c.wall_rolling_friction.map(|m| m.0).unwrap_or(pp);
+            RollingSet::ConstantTorque(RollingPair {
+                pp: ConstantTorque { mu_r: pp },
+                pw: ConstantTorque { mu_r: pw },
+            })
+        }
+    }
 }
 
 /// The time step, its stability limit and why, and the largest impact speed (m/s).

@@ -1,7 +1,7 @@
 //! Scene → LIGGGHTS input. Everything is checked here, before LIGGGHTS sees a line: a
 //! scene this mapping cannot express exactly is refused with the field and the reason.
 
-use plugflow_model::dem::config::{LawSet, TangentialSet};
+use plugflow_model::dem::config::{LawSet, RollingSet, TangentialSet};
 use plugflow_model::dem::external::{
     beta_form_restitution, linear_pairs, single_grain_mass, LinearPair,
 };
@@ -200,6 +200,15 @@ pub fn map(scene: &Scene, cfg: &DemConfig) -> Result<Mapped, Refusal> {
                 format!("model hooke/stiffness tangential {tangential}"),
                 "absolute_damping on tangential_damping on",
             )
+        }
+    };
+    // Rolling resistance: LIGGGHTS's `cdt` is the built-in `constant_torque` term for term
+    // (μ_r k_n δ R*, normalised by |ω_i − ω_j|, twist removed).
+    let model = match &cfg.rolling {
+        RollingSet::None => model,
+        RollingSet::ConstantTorque(r) => {
+            push(matrix("coefficientRollingFriction", r.pp.mu_r, r.pw.mu_r));
+            format!("{model} rolling_friction cdt")
         }
     };
     push(format!("pair_style gran {model} {keywords}"));

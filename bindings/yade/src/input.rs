@@ -30,7 +30,7 @@
 //! together); YADE's Mindlin law integrates the shear force incrementally and damps shear
 //! with the normal coefficient.
 
-use plugflow_model::dem::config::{LawSet, TangentialSet};
+use plugflow_model::dem::config::{LawSet, RollingSet, TangentialSet};
 use plugflow_model::dem::external::{
     beta_form_restitution, linear_cutoff_damping_ratio, linear_pairs, single_grain_mass, LinearPair,
 };
@@ -205,6 +205,15 @@ pub fn map(scene: &Scene, cfg: &DemConfig) -> Result<Setup, Refusal> {
         return Err(refuse(
             "dem.liggghts_input",
             "a LIGGGHTS input file is for the LIGGGHTS engine",
+        ));
+    }
+    if !matches!(cfg.rolling, RollingSet::None) {
+        return Err(refuse(
+            "contact.rolling",
+            "not mapped to YADE: its rolling resistance (ViscElMat's `mR`, after Zhou et al. \
+             1999) is not shown to equal the constant directional torque term for term (normal \
+             force, lever arm R*, the twist removed); use dem.engine = \"native\" or \
+             \"liggghts\"",
         ));
     }
     let Some(_) = single_grain_mass(cfg) else {

@@ -1,7 +1,9 @@
 //! The built-in engine's configuration: contact laws, time step and its stability limit,
 //! walls, box, inlet (built from a scene by `crate::dem_config`).
 
-use super::contact::{CoulombViscous, Hertz, History, Hooke, NormalLaw, TangentialLaw};
+use super::contact::{
+    ConstantTorque, CoulombViscous, Hertz, History, Hooke, NormalLaw, RollingPair, TangentialLaw,
+};
 use super::forces::Laws;
 use super::placement::Region;
 use super::walls::Wall;
@@ -146,6 +148,17 @@ impl LawSet {
     }
 }
 
+/// The scene's rolling-resistance law, one arm per law (`contact.rolling`): the force loop
+/// is compiled once per arm ([`RollingSet::None`] adds no work to it).
+#[derive(Debug, Clone, Default)]
+pub enum RollingSet {
+    /// Free rolling (the default).
+    #[default]
+    None,
+    /// Constant directional torque (`constant_torque`).
+    ConstantTorque(RollingPair<ConstantTorque>),
+}
+
 /// Tube geometry in engine terms.
 #[derive(Debug, Clone, Copy)]
 pub struct TubeGeometry {
@@ -236,6 +249,8 @@ pub struct DemConfig {
     pub walls: Vec<Wall>,
     /// Contact laws.
     pub laws: LawSet,
+    /// Rolling resistance.
+    pub rolling: RollingSet,
     /// Simulation box, m.
     pub box_lo: Vec3,
     pub box_hi: Vec3,

@@ -8,7 +8,7 @@
 //! The integration pass that follows adds the spills, each chunk those of its own grains, in
 //! chunk order and list order, so a run is bitwise reproducible for a given thread count.
 
-use super::contact::{NormalLaw, TangentialLaw};
+use super::contact::{NormalLaw, RollingLaw, RollingPair, TangentialLaw};
 use super::lanes::{Lanes, Num, LANES};
 use super::vec3::{add, add_assign, cross, dot, norm2, scale, sub, sub_assign};
 use super::walls::Wall;
@@ -214,8 +214,10 @@ impl ChunkOut<'_> {
 
 /// What every chunk's force loop reads: the laws, the step's settings, the grains and the
 /// neighbour list. One bundle, so the dispatch hops (sizes → CPU → body) pass one value.
-pub struct ForceInputs<'a, N, T> {
+pub struct ForceInputs<'a, N, T, R> {
     pub laws: &'a Laws<N, T>,
+    /// The rolling law ([`NoRolling`](super::contact::NoRolling) when the scene has none).
+    pub rolling: &'a RollingPair<R>,
     pub set: &'a StepSettings<'a>,
     pub grains: GrainsIn<'a>,
     /// Row starts of the half neighbour list: grain i's pairs are `start[i]..start[i + 1]`.
@@ -227,12 +229,12 @@ pub struct ForceInputs<'a, N, T> {
 }
 
 // By hand: `derive` would ask the laws themselves to be `Copy`.
-impl<N, T> Clone for ForceInputs<'_, N, T> {
+impl<N, T, R> Clone for ForceInputs<'_, N, T, R> {
     fn clone(&self) -> Self {
         *self
     }
 }
-impl<N, T> Copy for ForceInputs<'_, N, T> {}
+impl<N, T, R> Copy for ForceInputs<'_, N, T, R> {}
 
 /// Compute all forces on grains of the chunk (and partner shares). `near_wall`: per wall,
 /// the grains that may touch it (see [`NeighborList`](super::neighbor::NeighborList)).
@@ -248,8 +250,8 @@ impl<N, T> Copy for ForceInputs<'_, N, T> {}
 /// CPUs with AVX2 the same code is compiled for 4-wide registers and chosen at run time; it
 /// computes the same IEEE operations, so results do not depend on the CPU. Grains all
 /// alike take a build of their own (`Sizes`) whose pair constants are compiled in.
-pub fn chunk_forces<N: NormalLaw, T: TangentialLaw>(
-    inputs: ForceInputs<'_, N, T>,
+pub fn chunk_forces<N: NormalLaw, T: TangentialLaw, R: RollingLaw>(
+    inputs: ForceInputs<'_, N, T, R>,
     out: ChunkOut<'_>,
 ) {
     match inputs.set.uniform {
@@ -260,8 +262,8 @@ pub fn chunk_forces<N: NormalLaw, T: TangentialLaw>(
 
 /// [`chunk_forces`] for one kind of [`Sizes`]: the AVX2 build when the CPU has it.
 #[inline(always)]
-fn chunk_forces_sized<N: NormalLaw, T: TangentialLaw, S: Sizes>(
-    inputs: ForceInputs<'_, N, T>,
+fn chunk_forces_sized<N: NormalLaw, T: TangentialLaw, R: RollingLaw, S: Sizes>(
+    inputs: ForceInputs<'_, N, T, R>,
     out: ChunkOut<'_>,
     sizes: S,
 ) {
@@ -277,8 +279,8 @@ fn chunk_forces_sized<N: NormalLaw, T: TangentialLaw, S: Sizes>(
 /// [`chunk_forces_body`] compiled for AVX2 (no FMA: the same roundings as the baseline).
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
-unsafe fn chunk_forces_avx2<N: NormalLaw, T: TangentialLaw, S: Sizes>(
-    inputs: ForceInputs<'_, N, T>,
+unsafe fn chunk_forces_avx2<N: NormalLaw, T: TangentialLaw, R: RollingLaw, S: Sizes>(
+    inputs: ForceInputs<'_, N, T, R>,
     out: ChunkOut<'_>,
     sizes: S,
 ) {
@@ -286,8 +288,8 @@ unsafe fn chunk_forces_avx2<N: NormalLaw, T: TangentialLaw, S: Sizes>(
 }
 
 #[inline(always)]
-fn chunk_forces_body<N: NormalLaw, T: TangentialLaw, S: Sizes>(
-    inputs: ForceInputs<'_, N, T>,
+fn chunk_forces_body<N: NormalLaw, T: TangentialLaw, R: RollingLaw, S: Sizes>(
+    inputs: ForceInputs<'_, N, T, R>,
     out: ChunkOut<'_>,
     sizes: S,
 ) {
@@ -336,8 +338,8 @@ fn chunk_forces_body<N: NormalLaw, T: TangentialLaw, S: Sizes>(
 /// four contacts at a time, each force and torque to its two grains (or a spill), in list
 /// order. (Inlined into the force loop: one function for reading, one body for the compiler.)
 #[inline(always)]
-fn pair_contacts<N: NormalLaw, T: TangentialLaw, S: Sizes>(
-    inputs: ForceInputs<'_, N, T>,
+fn pair_contacts<N: NormalLaw, T: TangentialLaw, R: RollingLaw, S: Sizes>(
+    inputs: ForceInputs<'_, N, T, R>,
     out: ChunkOut<'_>,
     sizes: S,
     hist_off: usize,
@@ -422,7 +424,7 @@ fn pair_contacts<N: NormalLaw, T: TangentialLaw, S: Sizes>(
         } else {
             [Lanes::splat(0.0); 3]
         };
-        let (f, arm) = pair_lanes(&inputs, sizes, i, j, gap, &mut shear);
+        let (f, arm, roll) = pair_lanes(&inputs, sizes, i, j, gap, &mut shear);
         // Each contact's force and torque to its two grains, in list order.
         for l in 0..LANES.min(nc - base) {
             if T::USES_HISTORY {
@@ -432,8 +434,15 @@ fn pair_contacts<N: NormalLaw, T: TangentialLaw, S: Sizes>(
             add_assign(&mut out.force[i - lo], f);
             let tj = if set.rotation {
                 let arm = lane(arm, l);
-                add_assign(&mut out.torque[i - lo], scale(arm, sizes.radius(&g, i)));
-                scale(arm, sizes.radius(&g, j))
+                let mut ti = scale(arm, sizes.radius(&g, i));
+                let mut tj = scale(arm, sizes.radius(&g, j));
+                if R::ACTIVE {
+                    let m = lane(roll, l);
+                    add_assign(&mut ti, m);
+                    sub_assign(&mut tj, m);
+                }
+                add_assign(&mut out.torque[i - lo], ti);
+                tj
             } else {
                 [0.0; 3]
             };
@@ -456,8 +465,8 @@ fn pair_contacts<N: NormalLaw, T: TangentialLaw, S: Sizes>(
 /// Grain–wall contacts, one wall at a time (a partner of infinite mass and radius, at rest):
 /// the wall's near list, the laws four contacts at a time, the force on the wall.
 #[inline(always)]
-fn wall_contacts<N: NormalLaw, T: TangentialLaw, S: Sizes>(
-    inputs: ForceInputs<'_, N, T>,
+fn wall_contacts<N: NormalLaw, T: TangentialLaw, R: RollingLaw, S: Sizes>(
+    inputs: ForceInputs<'_, N, T, R>,
     out: ChunkOut<'_>,
     sizes: S,
 ) {
@@ -526,7 +535,7 @@ fn wall_contacts<N: NormalLaw, T: TangentialLaw, S: Sizes>(
             };
             let overlap = Lanes(four(&sc.wall_overlap, base));
             let n = std::array::from_fn(|c| Lanes(four(&sc.wall_normal[c], base)));
-            let (f, arm) = wall_lanes(&inputs, w, sizes, i, overlap, n, &mut shear);
+            let (f, arm, roll) = wall_lanes(&inputs, w, sizes, i, overlap, n, &mut shear);
             for l in 0..LANES.min(nc - base) {
                 if T::USES_HISTORY {
                     out.wall_history[slot[l]] = lane(shear, l);
@@ -535,10 +544,11 @@ fn wall_contacts<N: NormalLaw, T: TangentialLaw, S: Sizes>(
                 add_assign(&mut out.force[i - lo], f);
                 sub_assign(&mut on_wall, f);
                 if set.rotation {
-                    add_assign(
-                        &mut out.torque[i - lo],
-                        scale(lane(arm, l), sizes.radius(&g, i)),
-                    );
+                    let mut ti = scale(lane(arm, l), sizes.radius(&g, i));
+                    if R::ACTIVE {
+                        add_assign(&mut ti, lane(roll, l));
+                    }
+                    add_assign(&mut out.torque[i - lo], ti);
                 }
             }
         }
@@ -568,22 +578,23 @@ fn lane(v: [Lanes; 3], l: usize) -> Vec3 {
 }
 
 /// The grain–grain laws on `LANES` contacts (i[l], j[l]) in contact; returns the force on
-/// each i and n × F_t, and updates the contacts' `shear` histories.
+/// each i, n × F_t and the rolling torque on i, and updates the contacts' `shear` histories.
 #[inline(always)]
-fn pair_lanes<N: NormalLaw, T: TangentialLaw, S: Sizes>(
-    inputs: &ForceInputs<'_, N, T>,
+fn pair_lanes<N: NormalLaw, T: TangentialLaw, R: RollingLaw, S: Sizes>(
+    inputs: &ForceInputs<'_, N, T, R>,
     sizes: S,
     i: [usize; LANES],
     j: [usize; LANES],
     d: [Lanes; 3],
     shear: &mut [Lanes; 3],
-) -> ([Lanes; 3], [Lanes; 3]) {
+) -> ([Lanes; 3], [Lanes; 3], [Lanes; 3]) {
     let (laws, set, g) = (inputs.laws, inputs.set, &inputs.grains);
     let (ri, rj, sqrt_m_eff, r_eff) = sizes.pair(g, &i, &j);
     let rs = ri + rj;
     let dist = norm2(d).sqrt();
     let n = scale(d, Lanes::splat(1.0) / dist);
     let mut vrel = sub(gather3(g.velocity, &i), gather3(g.velocity, &j));
+    let mut w_rel = [Lanes::splat(0.0); 3];
     if set.rotation {
         let (wi, wj) = (
             gather3(g.angular_velocity, &i),
@@ -591,8 +602,11 @@ fn pair_lanes<N: NormalLaw, T: TangentialLaw, S: Sizes>(
         );
         let spin = std::array::from_fn(|c| ri * wi[c] + rj * wj[c]);
         add_assign(&mut vrel, cross(spin, n));
+        if R::ACTIVE {
+            w_rel = sub(wi, wj);
+        }
     }
-    respond(
+    let (f, arm, elastic) = respond(
         &laws.pp_normal,
         &laws.pp_tangential,
         set.dt,
@@ -601,30 +615,41 @@ fn pair_lanes<N: NormalLaw, T: TangentialLaw, S: Sizes>(
         n,
         vrel,
         shear,
-    )
+    );
+    let roll = if R::ACTIVE {
+        inputs.rolling.pp.torque(elastic, r_eff, w_rel, n)
+    } else {
+        [Lanes::splat(0.0); 3]
+    };
+    (f, arm, roll)
 }
 
 /// The grain–wall laws of wall `w` on `LANES` grains `i` touching it with `overlap` along
-/// `n`; returns the force on each grain and n × F_t, and updates their `shear` histories.
+/// `n`; returns the force on each grain, n × F_t and the rolling torque, and updates their
+/// `shear` histories.
 #[inline(always)]
-fn wall_lanes<N: NormalLaw, T: TangentialLaw, S: Sizes>(
-    inputs: &ForceInputs<'_, N, T>,
+fn wall_lanes<N: NormalLaw, T: TangentialLaw, R: RollingLaw, S: Sizes>(
+    inputs: &ForceInputs<'_, N, T, R>,
     w: usize,
     sizes: S,
     i: [usize; LANES],
     overlap: Lanes,
     n: [Lanes; 3],
     shear: &mut [Lanes; 3],
-) -> ([Lanes; 3], [Lanes; 3]) {
+) -> ([Lanes; 3], [Lanes; 3], [Lanes; 3]) {
     let (laws, set, g) = (inputs.laws, inputs.set, &inputs.grains);
     let (ri, sqrt_m) = sizes.wall(g, &i);
     let mut vrel = gather3(g.velocity, &i);
+    let mut w_rel = [Lanes::splat(0.0); 3];
     if set.rotation {
         let wi = gather3(g.angular_velocity, &i);
         let spin = std::array::from_fn(|c| ri * wi[c]);
         add_assign(&mut vrel, cross(spin, n));
+        if R::ACTIVE {
+            w_rel = wi;
+        }
     }
-    respond(
+    let (f, arm, elastic) = respond(
         &laws.pw_normal,
         &laws.wall_tangential[w],
         set.dt,
@@ -633,11 +658,18 @@ fn wall_lanes<N: NormalLaw, T: TangentialLaw, S: Sizes>(
         n,
         vrel,
         shear,
-    )
+    );
+    let roll = if R::ACTIVE {
+        inputs.rolling.pw.torque(elastic, ri, w_rel, n)
+    } else {
+        [Lanes::splat(0.0); 3]
+    };
+    (f, arm, roll)
 }
 
 /// Normal and tangential law of one contact group: `vrel` the contact point's velocity of
-/// grain i relative to its partner, `n` from i to the partner; returns (force on i, n × F_t).
+/// grain i relative to its partner, `n` from i to the partner; returns (force on i, n × F_t,
+/// the elastic normal force).
 #[allow(clippy::too_many_arguments)]
 #[inline(always)]
 fn respond<N: NormalLaw, T: TangentialLaw>(
@@ -649,18 +681,22 @@ fn respond<N: NormalLaw, T: TangentialLaw>(
     n: [Lanes; 3],
     vrel: [Lanes; 3],
     shear: &mut [Lanes; 3],
-) -> ([Lanes; 3], [Lanes; 3]) {
+) -> ([Lanes; 3], [Lanes; 3], Lanes) {
     let vn = dot(vrel, n);
     let vt = sub(vrel, scale(n, vn));
     let normal = normal_law.evaluate(sqrt_m_eff, r_eff, overlap, vn);
     let ft = tangential_law.force(&normal, vt, n, shear, Lanes::splat(dt));
-    (sub(ft, scale(n, normal.force)), cross(n, ft))
+    (
+        sub(ft, scale(n, normal.force)),
+        cross(n, ft),
+        normal.elastic,
+    )
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::dem::contact::{Hertz, History};
+    use crate::dem::contact::{ConstantTorque, Hertz, History, NoRolling};
     use crate::dem::walls::WallShape;
     use crate::rng::Rng;
 
@@ -768,8 +804,13 @@ mod tests {
     /// Forces, torques, histories and wall forces of one chunk over all grains, through
     /// `body` (the run-time dispatch, or one compiled variant).
     type Outcome = (Vec<Vec3>, Vec<Vec3>, Vec<Vec3>, Vec<Vec3>, Vec<Vec3>);
-    type ForceBody = fn(ForceInputs<'_, Hertz, History>, ChunkOut<'_>);
-    fn run(s: &Scene, body: ForceBody, uniform: Option<UniformPair>) -> Outcome {
+    type ForceBody<R> = fn(ForceInputs<'_, Hertz, History, R>, ChunkOut<'_>);
+    fn run<R: RollingLaw>(
+        s: &Scene,
+        rolling: &RollingPair<R>,
+        body: ForceBody<R>,
+        uniform: Option<UniformPair>,
+    ) -> Outcome {
         let n = s.x.len();
         let (mut force, mut torque) = (vec![[0.0; 3]; n], vec![[0.0; 3]; n]);
         let (mut history, mut wall_history) = (s.history.clone(), s.wall_history.clone());
@@ -804,6 +845,7 @@ mod tests {
         let near = vec![(0..n as u32).collect::<Vec<_>>(); s.walls.len()];
         let inputs = ForceInputs {
             laws: &s.laws,
+            rolling,
             set: &set,
             grains: g,
             start: &s.start,
@@ -815,8 +857,9 @@ mod tests {
         (force, torque, history, wall_history, wall_force)
     }
 
-    /// The same laws one contact at a time (`Num` = `Real`), summed in the same order.
-    fn one_contact_at_a_time(s: &Scene) -> Outcome {
+    /// The same laws one contact at a time (`Num` = `Real`), summed in the same order, with
+    /// the constant-torque rolling law when `rolling` is given.
+    fn one_contact_at_a_time(s: &Scene, rolling: Option<&RollingPair<ConstantTorque>>) -> Outcome {
         let n = s.x.len();
         let (mut force, mut torque) = (vec![[0.0; 3]; n], vec![[0.0; 3]; n]);
         let (mut history, mut wall_history) = (s.history.clone(), s.wall_history.clone());
@@ -834,7 +877,11 @@ mod tests {
             let vt = sub(vrel, scale(n, vn));
             let normal = normal_law.evaluate(sqrt_m, r_eff, overlap, vn);
             let ft = tangential.force(&normal, vt, n, h, dt);
-            (sub(ft, scale(n, normal.force)), cross(n, ft))
+            (
+                sub(ft, scale(n, normal.force)),
+                cross(n, ft),
+                normal.elastic,
+            )
         };
         for i in 0..n {
             for k in s.start[i] as usize..s.start[i + 1] as usize {
@@ -850,20 +897,27 @@ mod tests {
                 let (mi, mj) = (s.m[i], s.m[j]);
                 let spin: Vec3 = std::array::from_fn(|c| s.r[i] * s.w[i][c] + s.r[j] * s.w[j][c]);
                 let vrel = add(sub(s.v[i], s.v[j]), cross(spin, nrm));
-                let (f, arm) = respond1(
+                let r_eff = s.r[i] * s.r[j] / rs;
+                let (f, arm, elastic) = respond1(
                     &s.laws.pp_normal,
                     &s.laws.pp_tangential,
                     (mi * mj / (mi + mj)).sqrt(),
-                    s.r[i] * s.r[j] / rs,
+                    r_eff,
                     rs - dist,
                     nrm,
                     vrel,
                     &mut history[k],
                 );
+                let (mut ti, mut tj) = (scale(arm, s.r[i]), scale(arm, s.r[j]));
+                if let Some(roll) = rolling {
+                    let m = roll.pp.torque(elastic, r_eff, sub(s.w[i], s.w[j]), nrm);
+                    add_assign(&mut ti, m);
+                    sub_assign(&mut tj, m);
+                }
                 add_assign(&mut force[i], f);
-                add_assign(&mut torque[i], scale(arm, s.r[i]));
+                add_assign(&mut torque[i], ti);
                 sub_assign(&mut force[j], f);
-                add_assign(&mut torque[j], scale(arm, s.r[j]));
+                add_assign(&mut torque[j], tj);
             }
         }
         let nw = s.walls.len();
@@ -876,7 +930,7 @@ mod tests {
                 };
                 let spin = scale(s.w[i], s.r[i]);
                 let vrel = add(s.v[i], cross(spin, nrm));
-                let (f, arm) = respond1(
+                let (f, arm, elastic) = respond1(
                     &s.laws.pw_normal,
                     &s.laws.wall_tangential[wi],
                     s.m[i].sqrt(),
@@ -886,9 +940,13 @@ mod tests {
                     vrel,
                     &mut wall_history[i * nw + wi],
                 );
+                let mut ti = scale(arm, s.r[i]);
+                if let Some(roll) = rolling {
+                    add_assign(&mut ti, roll.pw.torque(elastic, s.r[i], s.w[i], nrm));
+                }
                 add_assign(&mut force[i], f);
                 sub_assign(&mut on_wall, f);
-                add_assign(&mut torque[i], scale(arm, s.r[i]));
+                add_assign(&mut torque[i], ti);
             }
             wall_force[wi] = on_wall;
         }
@@ -904,7 +962,7 @@ mod tests {
     #[test]
     fn lanes_give_bitwise_what_one_contact_at_a_time_gives() {
         let s = scene(true);
-        let expected = one_contact_at_a_time(&s);
+        let expected = one_contact_at_a_time(&s, None);
         let contacts = expected.2.iter().filter(|h| **h != [0.0; 3]).count();
         let on_walls = expected.3.iter().filter(|h| **h != [0.0; 3]).count();
         // Enough contacts for full groups and a ragged last one, on both kinds.
@@ -919,14 +977,53 @@ mod tests {
                 .flat_map(|v| v.iter().flatten().map(|x| x.to_bits()))
                 .collect()
         };
+        let free = RollingPair {
+            pp: NoRolling,
+            pw: NoRolling,
+        };
         let baseline = run(
             &s,
+            &free,
             |inputs, out| chunk_forces_body(inputs, out, EachOwn),
             None,
         );
         assert_eq!(bits(&baseline), bits(&expected), "baseline lanes");
-        let dispatched = run(&s, chunk_forces, None);
+        let dispatched = run(&s, &free, chunk_forces, None);
         assert_eq!(bits(&dispatched), bits(&expected), "run-time dispatch");
+
+        // The constant-torque rolling law: the same in lanes as one contact at a time, and
+        // it changes only torques (the laws' forces do not read it).
+        let rolling = RollingPair {
+            pp: ConstantTorque { mu_r: 0.1 },
+            pw: ConstantTorque { mu_r: 0.2 },
+        };
+        let expected_rolling = one_contact_at_a_time(&s, Some(&rolling));
+        let got = run(&s, &rolling, chunk_forces, None);
+        assert_eq!(bits(&got), bits(&expected_rolling), "rolling, in lanes");
+        assert_eq!(got.0, expected.0, "forces do not depend on the rolling law");
+        assert_ne!(got.1, expected.1, "the rolling law adds torques");
+    }
+
+    /// The constant-torque law on one contact against its formula: μ_r R* F_el against the
+    /// relative rotation, less its part along n; none for pure twisting or no rotation, none
+    /// for a negative elastic force.
+    #[test]
+    fn constant_torque_opposes_relative_rolling() {
+        let law = ConstantTorque { mu_r: 0.3 };
+        let n = [0.0, 0.0, 1.0];
+        let close = |m: Vec3, e: Vec3| (0..3).all(|c| (m[c] - e[c]).abs() < 1e-18);
+        // Pure rolling: μ_r R* F against ω.
+        let m = law.torque(2.0, 0.5e-3, [3.0, 4.0, 0.0], n);
+        assert!(close(m, [-0.3e-3 * 0.6, -0.3e-3 * 0.8, 0.0]), "{m:?}");
+        // Rolling and twisting: normalised by |ω|, the twist's part removed (LIGGGHTS).
+        let m = law.torque(2.0, 0.5e-3, [3.0, 0.0, 4.0], n);
+        assert!(close(m, [-0.3e-3 * 0.6, 0.0, 0.0]), "{m:?}");
+        assert_eq!(law.torque(2.0, 0.5e-3, [0.0, 0.0, 9.0], n), [0.0; 3]);
+        assert_eq!(law.torque(2.0, 0.5e-3, [0.0; 3], n), [0.0; 3]);
+        assert_eq!(
+            law.torque(-1.0, 0.5e-3, [1.0, 0.0, 0.0], n),
+            [-0.0, 0.0, 0.0]
+        );
     }
 
     /// Grains all alike take the constant path ([`UniformPair`]): the same forces as each
@@ -944,10 +1041,14 @@ mod tests {
             sqrt_m: m.sqrt(),
             radius: r,
         };
-        let expected = one_contact_at_a_time(&s);
+        let expected = one_contact_at_a_time(&s, None);
         let contacts = expected.2.iter().filter(|h| **h != [0.0; 3]).count();
         assert!(contacts > 2 * LANES, "{contacts} contacts");
-        let got = run(&s, chunk_forces, Some(uniform));
+        let free = RollingPair {
+            pp: NoRolling,
+            pw: NoRolling,
+        };
+        let got = run(&s, &free, chunk_forces, Some(uniform));
         let columns = |o: &Outcome| {
             [
                 o.0.clone(),

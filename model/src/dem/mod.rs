@@ -22,7 +22,9 @@ pub use plugflow_coupling::team;
 pub mod vec3;
 pub mod walls;
 
-pub use config::{DemConfig, LawSet, LawVisitor, TangentialChoice, TangentialSet, TubeGeometry};
+pub use config::{
+    DemConfig, LawSet, LawVisitor, RollingSet, TangentialChoice, TangentialSet, TubeGeometry,
+};
 
 use std::time::Instant;
 
@@ -30,7 +32,7 @@ use plugflow_coupling::{
     BackendError, DemBackend, ImplicitDrag, NewParticle, ParticleView, StageTimer, WallForce,
 };
 
-use self::contact::{NormalLaw, TangentialLaw};
+use self::contact::{NoRolling, NormalLaw, RollingLaw, RollingPair, TangentialLaw};
 use self::forces::{
     chunk_forces, ChunkOut, ContactScratch, ForceInputs, GrainsIn, Laws, Spill, StepSettings,
     UniformPair,
@@ -630,12 +632,27 @@ struct RunForces<'a, 't> {
 impl config::LawVisitor for RunForces<'_, '_> {
     type Out = ();
     fn visit<N: NormalLaw, T: TangentialLaw>(self, laws: &Laws<N, T>) {
-        self.job.run(laws, self.team)
+        // One arm per rolling law: each compiles its own force loop.
+        match &self.job.cfg.rolling {
+            RollingSet::None => {
+                let free = RollingPair {
+                    pp: NoRolling,
+                    pw: NoRolling,
+                };
+                self.job.run(laws, &free, self.team)
+            }
+            RollingSet::ConstantTorque(r) => self.job.run(laws, r, self.team),
+        }
     }
 }
 
 impl ForceJob<'_> {
-    fn run<N: NormalLaw, T: TangentialLaw>(self, laws: &Laws<N, T>, team: &Team) {
+    fn run<N: NormalLaw, T: TangentialLaw, R: RollingLaw>(
+        self,
+        laws: &Laws<N, T>,
+        rolling: &RollingPair<R>,
+        team: &Team,
+    ) {
         let cfg = self.cfg;
         let nw = cfg.walls.len();
         let set = StepSettings {
@@ -668,6 +685,7 @@ impl ForceJob<'_> {
         let (start, partner) = (&nl.start[..], &nl.partner[..]);
         let inputs = ForceInputs {
             laws,
+            rolling,
             set: &set,
             grains: g,
             start,

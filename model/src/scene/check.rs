@@ -43,6 +43,7 @@ pub(super) fn check(f: &SceneFile) -> Result<(), SceneError> {
     }
     let dmax = check_particles(f)?;
     check_contact(f)?;
+    check_rolling(f)?;
     check_dem(f)?;
     check_geometry(f, dmax)?;
     check_feed(f, dmax)?;
@@ -222,6 +223,56 @@ fn check_contact(f: &SceneFile) -> Result<(), SceneError> {
         }
         if g.si < 0.0 {
             return Err(field_err("contact.tangential_damping", "must be ≥ 0"));
+        }
+    }
+    Ok(())
+}
+
+/// `contact.rolling` and its coefficients: given exactly when the law takes them, and a
+/// rolling law only where grains rotate.
+fn check_rolling(f: &SceneFile) -> Result<(), SceneError> {
+    let c = &f.contact;
+    match c.rolling {
+        RollingLawName::None => {
+            for (given, name) in [
+                (c.rolling_friction.is_some(), "contact.rolling_friction"),
+                (
+                    c.wall_rolling_friction.is_some(),
+                    "contact.wall_rolling_friction",
+                ),
+            ] {
+                if given {
+                    return Err(field_err(
+                        name,
+                        "given without a rolling law: set `contact.rolling = \"constant_torque\"` \
+                         or remove it",
+                    ));
+                }
+            }
+        }
+        RollingLawName::ConstantTorque => {
+            let mu = c.rolling_friction.ok_or_else(|| {
+                field_err(
+                    "contact.rolling_friction",
+                    "missing: the constant_torque law needs μ_r",
+                )
+            })?;
+            for (m, name) in [
+                (Some(mu), "contact.rolling_friction"),
+                (c.wall_rolling_friction, "contact.wall_rolling_friction"),
+            ] {
+                if let Some(m) = m {
+                    if m.0 < 0.0 {
+                        return Err(field_err(name, "must be ≥ 0"));
+                    }
+                }
+            }
+            if !f.dem.rotation {
+                return Err(field_err(
+                    "contact.rolling",
+                    "a rolling law acts on rotations; `dem.rotation = false` has none",
+                ));
+            }
         }
     }
     Ok(())

@@ -255,6 +255,18 @@ pub enum TangentialLawName {
     History,
 }
 
+/// Rolling-resistance law.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum RollingLawName {
+    /// Free rolling: no torque but the tangential force's (the default).
+    #[default]
+    None,
+    /// Constant directional torque μ_r R* F_n against the relative rolling (LIGGGHTS's
+    /// `rolling_friction cdt`, Lethe's `constant_resistance`).
+    ConstantTorque,
+}
+
 /// Contact parameters.
 #[derive(Debug, Clone, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -285,6 +297,13 @@ pub struct ContactSpec {
     pub wall_friction: Option<Finite>,
     /// Grain–wall restitution. Default: `restitution`.
     pub wall_restitution: Option<Finite>,
+    /// Rolling resistance: `none` (default) or `constant_torque`.
+    #[serde(default)]
+    pub rolling: RollingLawName,
+    /// `constant_torque`: coefficient of rolling friction μ_r ≥ 0, grain–grain.
+    pub rolling_friction: Option<Finite>,
+    /// `constant_torque`: grain–wall μ_r. Default: `rolling_friction`.
+    pub wall_rolling_friction: Option<Finite>,
 }
 
 fn default_tangential() -> TangentialLawName {

@@ -51,8 +51,10 @@ impl NormalLaw for Hertz {
         // F = 4/3 Y* sqrt(r* δ) δ;  dF/dδ = 2 Y* sqrt(r* δ);  k_t = 8 G* sqrt(r* δ).
         // α sqrt(m K_n) δ^{1/4} = α/sqrt(1.5) · sqrt(m dF/dδ) = gamma_n_coeff sqrt(m) (r* δ)^{1/4}.
         let gamma_n = T::splat(self.gamma_n_coeff) * sqrt_m_eff * sqrt_rd.sqrt();
+        let elastic = T::splat((4.0 / 3.0) * self.y_star) * sqrt_rd * overlap;
         NormalOut {
-            force: T::splat((4.0 / 3.0) * self.y_star) * sqrt_rd * overlap + gamma_n * vn,
+            force: elastic + gamma_n * vn,
+            elastic,
             kt: T::splat(8.0 * self.g_star) * sqrt_rd,
             gamma_n,
             gamma_t: gamma_n * T::splat(self.gamma_t_ratio),

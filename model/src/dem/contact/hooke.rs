@@ -48,8 +48,10 @@ impl NormalLaw for Hooke {
         let gamma_n = T::splat(self.gamma_n_per_sqrt_m) * sqrt_m_eff;
         // Same damping ratio in the tangential direction.
         let gamma_t = T::splat(self.gamma_t_per_sqrt_m) * sqrt_m_eff;
+        let elastic = T::splat(self.kn) * overlap;
         NormalOut {
-            force: T::splat(self.kn) * overlap + gamma_n * vn,
+            force: elastic + gamma_n * vn,
+            elastic,
             kt: T::splat(self.kt),
             gamma_n,
             gamma_t,

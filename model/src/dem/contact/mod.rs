@@ -4,11 +4,13 @@
 //! Sign conventions: `n` is the unit vector from grain i to its partner (grain j or the
 //! wall), `overlap` δ > 0 in contact, `vn` = (v_i − v_j)·n > 0 while approaching.
 
+pub mod constant_torque;
 pub mod coulomb_viscous;
 pub mod hertz;
 pub mod history;
 pub mod hooke;
 
+pub use constant_torque::ConstantTorque;
 pub use coulomb_viscous::CoulombViscous;
 pub use hertz::Hertz;
 pub use history::History;
@@ -24,6 +26,8 @@ pub struct NormalOut<T = Real> {
     /// Normal force magnitude, N, repulsive positive (elastic + viscous; may be negative at
     /// the end of a damped contact, as in LIGGGHTS' default).
     pub force: T,
+    /// Its elastic part alone, N (what a rolling law's torque scales with).
+    pub elastic: T,
     /// Tangential spring stiffness for this overlap, N/m.
     pub kt: T,
     /// Normal damping coefficient for this overlap, kg/s.
@@ -60,6 +64,38 @@ pub trait TangentialLaw: Clone + Send + Sync {
     ) -> [T; 3];
     /// The same law with friction coefficient `mu`.
     fn with_friction(&self, mu: Real) -> Self;
+}
+
+/// A rolling-resistance law for one kind of pair: a torque against the relative rotation.
+/// Branch-free over [`Num`] like the other laws; [`NoRolling`] compiles to nothing.
+pub trait RollingLaw: Clone + Send + Sync {
+    /// False for [`NoRolling`]: the force loop then neither computes nor adds a torque.
+    const ACTIVE: bool;
+    /// Torque on grain i, N·m, from the pair's elastic normal force (N), effective radius
+    /// R* (m), relative angular velocity ω_i − ω_j (rad/s) and unit normal `n` (i → partner).
+    /// Its partner takes the opposite torque.
+    fn torque<T: Num>(&self, elastic_force: T, r_eff: T, w_rel: [T; 3], n: [T; 3]) -> [T; 3];
+}
+
+/// No rolling resistance (the default): grains roll freely but for their tangential forces.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct NoRolling;
+
+impl RollingLaw for NoRolling {
+    const ACTIVE: bool = false;
+    #[inline(always)]
+    fn torque<T: Num>(&self, _: T, _: T, _: [T; 3], _: [T; 3]) -> [T; 3] {
+        [T::splat(0.0); 3]
+    }
+}
+
+/// The rolling law of a scene's grain–grain and grain–wall pairs.
+#[derive(Debug, Clone)]
+pub struct RollingPair<R> {
+    /// Grain–grain.
+    pub pp: R,
+    /// Grain–wall.
+    pub pw: R,
 }
 
 /// |ln e| / sqrt(π² + ln² e): the damping ratio of a linear spring–dashpot that gives
