@@ -14,6 +14,7 @@
 //! advances the remaining steps and the gas steps over exactly that time.
 
 use crate::checks::CouplingCheck;
+use crate::fluid_force::{vorticity::vorticity, FluidForce};
 use crate::grid::{
     deposit_part, finish_deposit, interpolate_scalar, interpolate_vec3, GranularFields, NodeSums,
     Stencil, TubeGrid,
@@ -118,6 +119,8 @@ pub struct Coupler {
     /// The gas solver.
     pub gas: Box<dyn GasSolver>,
     drag: Arc<dyn DragLaw>,
+    /// The fluid forces besides the drag the scene switched on (`coupling.fluid_forces`).
+    fluid_forces: Vec<Arc<dyn FluidForce>>,
     fields: GranularFields,
     /// DEM steps per coupling interval.
     pub substeps: u64,
@@ -144,10 +147,12 @@ pub struct Coupler {
 }
 
 impl Coupler {
-    /// Couple `gas` and `drag` with `substeps` DEM steps of `dem_dt` per exchange.
+    /// Couple `gas` and `drag` (and the further `fluid_forces`) with `substeps` DEM steps of
+    /// `dem_dt` per exchange.
     pub fn new(
         gas: Box<dyn GasSolver>,
         drag: Arc<dyn DragLaw>,
+        fluid_forces: Vec<Arc<dyn FluidForce>>,
         substeps: u64,
         dem_dt: Real,
         checks: Vec<CouplingCheck>,
@@ -155,6 +160,7 @@ impl Coupler {
         Self {
             gas,
             drag,
+            fluid_forces,
             fields: GranularFields::default(),
             substeps,
             dem_dt,
@@ -330,11 +336,19 @@ impl Coupler {
         let grad = self.gas.pressure_gradient();
         let gas_u = self.gas.gas_velocity();
         let gas_density = self.gas.gas_density();
+        // The curl of the gas velocity only for a scene whose forces read it.
+        let vort = match &gas_u {
+            Some(u) if self.fluid_forces.iter().any(|f| f.needs_vorticity()) => {
+                Some(vorticity(self.gas.grid(), u))
+            }
+            _ => None,
+        };
         let fields = GasAtNodes {
             porosity: self.gas.porosity(),
             pressure_gradient: &grad,
             gas_velocity: gas_u.as_deref(),
             gas_density: gas_density.as_deref(),
+            vorticity: vort.as_deref(),
         };
         let p = dem.particles();
         let (v, r) = (p.velocity, p.radius);
@@ -344,7 +358,11 @@ impl Coupler {
         self.forces.resize(n, [0.0; 3]);
         self.bad.clear();
         self.bad.resize(members, None);
-        let (drag, stencils) = (&*self.drag, &self.fields.stencils[..]);
+        let forces_of = FluidForcesOf {
+            drag: &*self.drag,
+            more: &self.fluid_forces,
+        };
+        let stencils = &self.fields.stencils[..];
         match team {
             Some(team) if members > 1 => {
                 let forces = Shared::new(&mut self.forces);
@@ -355,7 +373,7 @@ impl Coupler {
                     let (forces, bad) =
                         unsafe { (forces.range(lo, hi), &mut bad.range(m, m + 1)[0]) };
                     *bad = drag_on(
-                        drag,
+                        &forces_of,
                         &fields,
                         &stencils[lo..hi],
                         &v[lo..hi],
@@ -365,7 +383,7 @@ impl Coupler {
                     .map(|k| lo + k);
                 });
             }
-            _ => self.bad[0] = drag_on(drag, &fields, stencils, v, r, &mut self.forces),
+            _ => self.bad[0] = drag_on(&forces_of, &fields, stencils, v, r, &mut self.forces),
         }
         if let Some(i) = self.bad.iter().flatten().copied().min() {
             let st = self.fields.stencils[i].expect("only grains with a stencil get a drag");
@@ -445,12 +463,20 @@ struct GasAtNodes<'a> {
     pressure_gradient: &'a [Vec3],
     gas_velocity: Option<&'a [Vec3]>,
     gas_density: Option<&'a [Real]>,
+    vorticity: Option<&'a [Vec3]>,
 }
 
-/// The drag on each grain with a stencil (zero on the others) into `forces`; the index of
-/// the first grain whose force is not finite, if any.
+/// Everything the gas does to a grain: the drag and the further fluid forces.
+struct FluidForcesOf<'a> {
+    drag: &'a dyn DragLaw,
+    more: &'a [Arc<dyn FluidForce>],
+}
+
+/// The fluid force (drag, then each further force in the scene's order) on each grain with
+/// a stencil (zero on the others) into `forces`; the index of the first grain whose force
+/// is not finite, if any.
 fn drag_on(
-    drag: &dyn DragLaw,
+    of: &FluidForcesOf<'_>,
     gas: &GasAtNodes<'_>,
     stencils: &[Option<Stencil>],
     velocity: &[Vec3],
@@ -476,8 +502,13 @@ fn drag_on(
             gas_density: gas
                 .gas_density
                 .map_or(0.0, |rho| interpolate_scalar(&st, rho)),
+            vorticity: gas.vorticity.map_or([0.0; 3], |w| interpolate_vec3(&st, w)),
         };
-        let f = drag.force(&grain);
+        let mut f = of.drag.force(&grain);
+        for more in of.more {
+            let g = more.force(&grain);
+            f = [f[0] + g[0], f[1] + g[1], f[2] + g[2]];
+        }
         if !(f[0].is_finite() && f[1].is_finite() && f[2].is_finite()) {
             return Some(i);
         }
@@ -600,6 +631,7 @@ mod tests {
         let mut c = Coupler::new(
             Box::new(gas),
             Arc::new(DarcyVolumeForce),
+            Vec::new(),
             10,
             dt,
             Vec::new(),

@@ -14,6 +14,7 @@ pub mod backend;
 pub mod checks;
 pub mod coupler;
 pub mod drag;
+pub mod fluid_force;
 pub mod gas;
 pub mod grid;
 pub mod isolated;

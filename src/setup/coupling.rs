@@ -6,6 +6,7 @@ use plugflow_coupling::checks::{
     check_cell_volume, check_drag_relaxation, check_travel, first_refusal,
 };
 use plugflow_coupling::drag::{drag_law, DragSettings};
+use plugflow_coupling::fluid_force::{fluid_force, FluidForce, FluidForceSettings};
 use plugflow_coupling::{Coupler, CouplingCheck, DragLaw, GasSolver, TubeGrid, Verdict};
 
 use crate::dem::DemConfig;
@@ -118,13 +119,16 @@ pub fn coupling_from_scene(scene: &Scene, dem: &DemConfig) -> Result<Option<Coup
             let phi = voidage_factor * g.porosity_min.0.max(0.4);
             let tau = dem.density * phi * d_mean * d_mean / (150.0 * (1.0 - phi) * g.viscosity.si);
             let checks = checks_for(tau, phi, &grid, dem, interval);
-            return coupler(Box::new(gas), drag, substeps, dem.dt, checks);
+            let forces = build_fluid_forces(scene, g.viscosity.si)?;
+            return coupler(Box::new(gas), drag, forces, substeps, dem.dt, checks);
         }
         let checks = coupling_checks(&params, &grid, dem, interval);
         let drag = build_drag(scene, g.viscosity.si, 1.0)?;
+        let forces = build_fluid_forces(scene, g.viscosity.si)?;
         coupler(
             Box::new(DarcyGas::new(grid, params)),
             drag,
+            forces,
             substeps,
             dem.dt,
             checks,
@@ -151,10 +155,37 @@ fn build_drag(
     }))
 }
 
+/// The scene's further fluid forces from the registry, in its order (the scene check has
+/// refused names it lacks and forces its gas cannot feed).
+fn build_fluid_forces(
+    scene: &Scene,
+    viscosity: Real,
+) -> Result<Vec<Arc<dyn FluidForce>>, SceneError> {
+    let f = &scene.file;
+    let settings = FluidForceSettings {
+        viscosity,
+        gravity: [f.gravity[0].si, f.gravity[1].si, f.gravity[2].si],
+    };
+    f.fluid_forces()
+        .iter()
+        .map(|name| {
+            fluid_force(name)
+                .map(|entry| (entry.build)(&settings))
+                .ok_or_else(|| {
+                    SceneError::field(
+                        "coupling.fluid_forces",
+                        format!("unknown fluid force `{name}`"),
+                    )
+                })
+        })
+        .collect()
+}
+
 /// The coupler, unless a check refuses the run (one place for every gas model).
 fn coupler(
     gas: Box<dyn GasSolver>,
     drag: Arc<dyn DragLaw>,
+    fluid_forces: Vec<Arc<dyn FluidForce>>,
     substeps: u64,
     dem_dt: Real,
     checks: Vec<CouplingCheck>,
@@ -168,7 +199,14 @@ fn coupler(
             ),
         ));
     }
-    Ok(Some(Coupler::new(gas, drag, substeps, dem_dt, checks)))
+    Ok(Some(Coupler::new(
+        gas,
+        drag,
+        fluid_forces,
+        substeps,
+        dem_dt,
+        checks,
+    )))
 }
 
 /// The checks of a coupled run, in the manner of CFDEM's `checkCouplingInterval`.

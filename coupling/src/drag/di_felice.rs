@@ -5,8 +5,8 @@
 //!   F = ½ C_D ρ (π d²/4) ε² |w| w ε^(−χ),   C_D = (0.63 + 4.8/√Re)²,
 //!   χ = 3.7 − 0.65 exp(−(1.5 − log₁₀ Re)²/2),   Re = ε ρ d |w| / μ,
 //!
-//! with w = u − v the interstitial slip (ε w the superficial one), plus the pressure
-//! gradient force −V_p ∇p as for `ergun_wen_yu`.
+//! with w = u − v the interstitial slip (ε w the superficial one); the pressure-gradient
+//! force −V_p ∇p is the fluid force `pressure_gradient` beside it, as for `ergun_wen_yu`.
 
 use super::{slip_force, DragLaw, DragLawEntry, GrainInFluid};
 use crate::{Real, Vec3};

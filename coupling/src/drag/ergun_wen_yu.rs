@@ -7,9 +7,10 @@
 //!   ε ≥ 0.8:  β = ¾ C_D ε (1 − ε) ρ |w| / d · ε^(−2.65),                       (Wen–Yu)
 //!             C_D = 24/Re (1 + 0.15 Re^0.687) for Re < 1000, else 0.44,  Re = ε ρ d |w| / μ,
 //!
-//! and the force on one grain F = V_p β w / (1 − ε) − V_p ∇p (the drag and the pressure
-//! gradient the grain sits in, its share of the −(1 − ε)∇p the gas momentum's −ε∇p leaves
-//! to the solids). With the gas momentum written with −ε∇p, a fixed bed then carries exactly the Ergun pressure drop: ε ∇p = β u with the
+//! and the drag on one grain F = V_p β w / (1 − ε); the pressure gradient the grain sits in
+//! (its share of the (1 − ε)∇p the gas momentum's −ε∇p leaves to the solids) is the fluid
+//! force `pressure_gradient` beside it (`crate::fluid_force`). With the gas momentum written
+//! with −ε∇p, a fixed bed then carries exactly the Ergun pressure drop: ε ∇p = β u with the
 //! superficial velocity U = ε u gives Δp/L = 150 μ (1−ε)² U/(ε³ d²) + 1.75 ρ (1−ε) U²/(ε³ d).
 //! Seed 004 prints eq. 12 per grain as ½ π R² ρ C_D |w| w with C_D = (200 (1 − ε)/Re + 7/3)/ε,
 //! which is this β divided by ε: with its −ε∇p momentum equation (eq. 10) a fixed bed would

@@ -75,6 +75,8 @@ pub struct GrainInFluid {
     pub gas_velocity: Vec3,
     /// Gas density at the grain, kg/m³ (solvers that carry one; the d'Arcy law needs none).
     pub gas_density: Real,
+    /// Gas vorticity ∇ × u at the grain, 1/s (zero unless a fluid force reads it).
+    pub vorticity: Vec3,
 }
 
 impl GrainInFluid {
@@ -101,6 +103,7 @@ pub(crate) fn grain_at_rest_in_stream(d: Real, eps: Real, w: Real, rho: Real) ->
         pressure_gradient: [0.0; 3],
         gas_velocity: [w, 0.0, 0.0],
         gas_density: rho,
+        vorticity: [0.0; 3],
     }
 }
 
@@ -141,19 +144,15 @@ impl<L: DragLaw + ?Sized> DragLaw for std::sync::Arc<L> {
     }
 }
 
-/// The force of a law of the slip on a grain: V_p β/(1 − ε) w − V_p ∇p (the drag and the
-/// pressure gradient the grain sits in, its share of the −(1 − ε)∇p the gas momentum's −ε∇p
-/// leaves to the solids). `coefficient`: the law's [`DragLaw::slip_coefficient`].
+/// The drag of a law of the slip on a grain: V_p β/(1 − ε) w. (The pressure gradient the
+/// grain sits in, its share of the (1 − ε)∇p the gas momentum's −ε∇p leaves to the solids,
+/// is the fluid force `pressure_gradient`, `crate::fluid_force`.) `coefficient`: the law's
+/// [`DragLaw::slip_coefficient`].
 pub(crate) fn slip_force(
     g: &GrainInFluid,
     coefficient: impl Fn(Real, Real, Real, Real) -> Real,
 ) -> Vec3 {
     let (w, speed) = g.slip();
     let s = g.volume * coefficient(g.porosity, speed, g.diameter, g.gas_density);
-    let gp = g.pressure_gradient;
-    [
-        s * w[0] - g.volume * gp[0],
-        s * w[1] - g.volume * gp[1],
-        s * w[2] - g.volume * gp[2],
-    ]
+    [s * w[0], s * w[1], s * w[2]]
 }

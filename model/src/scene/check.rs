@@ -4,6 +4,7 @@
 use super::*;
 use crate::Real;
 use plugflow_coupling::drag::{drag_law, drag_law_names};
+use plugflow_coupling::fluid_force::{fluid_force, fluid_force_names};
 
 /// Range checks that the types alone cannot express.
 /// Most grains a scene may ask for at the start.
@@ -780,6 +781,48 @@ fn check_gas(f: &SceneFile) -> Result<(), SceneError> {
     check_coupling(f, simple)
 }
 
+/// `coupling.fluid_forces`: registered names, each once, each fed by the scene's gas; the
+/// `simple` gas's momentum balance needs `pressure_gradient`.
+fn check_fluid_forces(f: &SceneFile, simple: bool) -> Result<(), SceneError> {
+    const FIELD: &str = "coupling.fluid_forces";
+    let names = f.fluid_forces();
+    for (k, name) in names.iter().enumerate() {
+        let entry = fluid_force(name).ok_or_else(|| {
+            field_err(
+                FIELD,
+                format!("unknown fluid force `{name}` ({})", fluid_force_names(", ")),
+            )
+        })?;
+        if names[..k].contains(name) {
+            return Err(field_err(FIELD, format!("`{name}` is listed twice")));
+        }
+        if !simple && name == "pressure_gradient" {
+            return Err(field_err(
+                FIELD,
+                "`pressure_gradient` with the darcy gas: the d'Arcy volume force is the whole \
+                 fluid force, its pressure gradient included (it would count twice)",
+            ));
+        }
+        if entry.needs_gas_velocity && !simple {
+            return Err(field_err(
+                FIELD,
+                format!(
+                    "`{name}` needs the gas velocity and density, which only the simple gas \
+                     carries"
+                ),
+            ));
+        }
+    }
+    if simple && !names.iter().any(|n| n == "pressure_gradient") {
+        return Err(field_err(
+            FIELD,
+            "the simple gas needs `pressure_gradient`: its momentum equation carries −ε∇p and \
+             leaves (1 − ε)∇p to the grains; without it gas and grains do not conserve momentum",
+        ));
+    }
+    Ok(())
+}
+
 /// `[coupling]`: the drag law from the registry, paired with the gas model, and its settings.
 fn check_coupling(f: &SceneFile, simple: bool) -> Result<(), SceneError> {
     let drag = f.coupling.as_ref().map_or("darcy", |c| c.drag.as_str());
@@ -807,6 +850,7 @@ fn check_coupling(f: &SceneFile, simple: bool) -> Result<(), SceneError> {
             },
         ));
     }
+    check_fluid_forces(f, simple)?;
     if let Some(c) = &f.coupling {
         if let Some(i) = c.interval {
             if i.si <= 0.0 {

@@ -147,6 +147,24 @@ pub struct CouplingSpec {
     /// a two-dimensional model whose cells, one grain thick, hold more void than the bed it
     /// stands for. Only with `ergun_wen_yu`. Default 1 (the voidage as it is).
     pub voidage_factor: Option<Finite>,
+    /// Fluid forces on the grains besides the drag, by name (`pressure_gradient`,
+    /// `buoyancy`, `saffman_mei_lift`; coupling/src/fluid_force/). Default: the
+    /// `pressure_gradient` with the `simple` gas (its momentum equation needs it), none with
+    /// the `darcy` gas (the d'Arcy volume force is the whole fluid force).
+    pub fluid_forces: Option<Vec<String>>,
+}
+
+impl SceneFile {
+    /// The fluid forces besides the drag this scene switches on, in its order (the default
+    /// of [`CouplingSpec::fluid_forces`] when it names none).
+    pub fn fluid_forces(&self) -> Vec<String> {
+        let simple = self.gas.as_ref().is_some_and(|g| g.model == "simple");
+        match self.coupling.as_ref().and_then(|c| c.fluid_forces.clone()) {
+            Some(names) => names,
+            None if simple => vec!["pressure_gradient".into()],
+            None => Vec::new(),
+        }
+    }
 }
 
 fn default_drag() -> String {
