@@ -662,3 +662,102 @@ threads = 1
         "speed: native {vn}, liggghts {vl}"
     );
 }
+
+/// (g) A periodic box (LIGGGHTS's `boundary p f f`): two grains meet obliquely across the
+/// seam, with friction (sliding, spin, shear history), and the same two grains meet in the
+/// middle of the box. In each engine the collision across the seam equals the one in the
+/// middle: velocities and spins within 1e-9 of their scale (the runs differ in the rounding
+/// of positions of other magnitude; the built-in engine's tests/periodic.rs measures 1e-13).
+/// Between the engines the oblique collision itself differs (measured, mid-box as across the
+/// seam: exit v_x −0.0256 vs −0.0232 m/s, spin 157 vs 147 rad/s; the head-on bounce of (a)
+/// agrees to 2 %): the two keep the shear spring of a sliding, rolling contact differently,
+/// which is not the seam's to test here (noted for the cross-code work).
+/// YADE refuses periodic boxes.
+#[test]
+fn g_periodic_seam_collision_as_mid_box() {
+    let _g = SERIAL.lock().unwrap_or_else(|p| p.into_inner());
+    let text = r#"
+schema_version = 1
+name = "cross"
+duration = "1 s"
+gravity = [0, 0, 0]
+[domain]
+min = [0, -0.01, -0.01]
+max = [0.01, 0.01, 0.01]
+periodic = [true, false, false]
+[particles]
+diameter = "1.4 mm"
+density = "937 kg/m^3"
+[contact]
+normal = "hooke"
+tangential = "history"
+contact_time = "1e-4 s"
+friction = 0.5
+restitution = 0.5
+[dem]
+threads = 1
+"#;
+    let s = scene(text);
+    let (r, gap, offset) = (0.7e-3, 2e-4, 0.4e-3);
+    // Velocities and spins of the two grains (in insertion order) after they met at
+    // `centre` (0: across the seam).
+    let collide = |e: &mut dyn DemBackend, centre: f64| -> Vec<[f64; 6]> {
+        let at = |x: f64| x.rem_euclid(0.01);
+        e.insert(&[
+            NewParticle {
+                position: [at(centre - r - gap), -offset, 0.0],
+                velocity: [0.2, 0.0, 0.0],
+                radius: r,
+                density: 937.0,
+            },
+            NewParticle {
+                position: [at(centre + r + gap), offset, 0.0],
+                velocity: [-0.2, 0.0, 0.0],
+                radius: r,
+                density: 937.0,
+            },
+        ])
+        .unwrap();
+        let steps = (0.01 / e.time_step()).round() as u64;
+        e.advance(steps).unwrap();
+        let p = e.particles();
+        let first = *p.id.iter().min().unwrap();
+        let mut out = vec![[0.0; 6]; 2];
+        for k in 0..2 {
+            let (v, w) = (p.velocity[k], p.angular_velocity[k]);
+            out[(p.id[k] - first) as usize] = [v[0], v[1], v[2], w[0], w[1], w[2]];
+        }
+        out
+    };
+    let native = |centre| {
+        let mut e = NativeDem::new(plugflow::setup::dem_config(&s).unwrap()).unwrap();
+        collide(&mut e, centre)
+    };
+    let liggghts = |centre| collide(&mut load("liggghts", &s), centre);
+    let (na, nb, la, lb) = (native(0.0), native(0.005), liggghts(0.0), liggghts(0.005));
+    header();
+    row("seam: grain 0 v_x, across", &[na[0][0], la[0][0], f64::NAN]);
+    row(
+        "seam: grain 0 v_x, mid-box",
+        &[nb[0][0], lb[0][0], f64::NAN],
+    );
+    row("seam: grain 0 ω_z, across", &[na[0][5], la[0][5], f64::NAN]);
+    row(
+        "seam: grain 0 ω_z, mid-box",
+        &[nb[0][5], lb[0][5], f64::NAN],
+    );
+    assert!(na[0][0] < 0.1 && la[0][0] < 0.1, "they collided");
+    let scale = [0.2, 0.2, 0.2, 300.0, 300.0, 300.0];
+    for (engine, a, b) in [("native", &na, &nb), ("liggghts", &la, &lb)] {
+        for g in 0..2 {
+            for c in 0..6 {
+                assert!(
+                    (a[g][c] - b[g][c]).abs() < 1e-9 * scale[c],
+                    "{engine}: grain {g}, entry {c}: across the seam {} vs mid-box {}",
+                    a[g][c],
+                    b[g][c]
+                );
+            }
+        }
+    }
+}

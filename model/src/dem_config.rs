@@ -54,13 +54,15 @@ pub fn dem_config(scene: &Scene) -> Result<DemConfig, SceneError> {
     let g = Grains::of(scene);
     let mut laws = contact_laws(scene, &g);
     let (dt, dt_report, v_max) = time_step(scene, &g, &laws)?;
+    let skin = f.dem.skin.map(|s| s.si).unwrap_or(0.1 * g.dmax);
     let Geometry {
         walls,
         box_lo,
         box_hi,
         tube,
         removes,
-    } = geometry(scene, g.dmax)?;
+        periodic,
+    } = geometry(scene, g.dmax, skin)?;
     laws.attach_walls(&walls);
     let inlet = inlet_config(scene, tube.as_ref(), &g)?;
     let initial = initial_config(scene, tube.as_ref(), box_lo, box_hi)?;
@@ -68,7 +70,7 @@ pub fn dem_config(scene: &Scene) -> Result<DemConfig, SceneError> {
         dt,
         dt_report,
         rotation: f.dem.rotation,
-        skin: f.dem.skin.map(|s| s.si).unwrap_or(0.1 * g.dmax),
+        skin,
         threads: f.dem.threads,
         gravity: [f.gravity[0].si, f.gravity[1].si, f.gravity[2].si],
         walls,
@@ -76,6 +78,7 @@ pub fn dem_config(scene: &Scene) -> Result<DemConfig, SceneError> {
         rolling: rolling_law(scene),
         box_lo,
         box_hi,
+        periodic,
         tube,
         inlet,
         initial,
@@ -242,15 +245,23 @@ struct Geometry {
     tube: Option<TubeGeometry>,
     /// Grains can leave (open ends or a box).
     removes: bool,
+    /// Periodic lab directions.
+    periodic: [bool; 3],
+}
+
+/// The lab direction a unit axis lies along, if any.
+fn periodic_axis(axis: Vec3) -> Option<usize> {
+    (0..3).find(|&k| (axis[k].abs() - 1.0).abs() < 1e-12)
 }
 
 /// `[tube]` (its wall, caps and slab planes) or `[domain]`, and `[[walls]]`.
-fn geometry(scene: &Scene, dmax: Real) -> Result<Geometry, SceneError> {
+fn geometry(scene: &Scene, dmax: Real, skin: Real) -> Result<Geometry, SceneError> {
     let f = &scene.file;
     let mut walls = Vec::new();
     let (mut box_lo, mut box_hi);
     let mut tube_geom = None;
     let removes;
+    let mut periodic = [false; 3];
     if let Some(t) = &f.tube {
         let axis = normalized([t.axis[0].0, t.axis[1].0, t.axis[2].0]);
         let origin = [t.origin[0].si, t.origin[1].si, t.origin[2].si];
@@ -265,7 +276,7 @@ fn geometry(scene: &Scene, dmax: Real) -> Result<Geometry, SceneError> {
             },
             friction: None,
         });
-        if t.inlet_end == TubeEnd::Closed {
+        if !t.periodic && t.inlet() == TubeEnd::Closed {
             walls.push(Wall {
                 name: "inlet_cap".into(),
                 shape: WallShape::Plane {
@@ -275,7 +286,7 @@ fn geometry(scene: &Scene, dmax: Real) -> Result<Geometry, SceneError> {
                 friction: None,
             });
         }
-        if t.outlet_end == TubeEnd::Closed {
+        if !t.periodic && t.outlet() == TubeEnd::Closed {
             walls.push(Wall {
                 name: "outlet_cap".into(),
                 shape: WallShape::Plane {
@@ -316,7 +327,7 @@ fn geometry(scene: &Scene, dmax: Real) -> Result<Geometry, SceneError> {
                 Some(h)
             }
         };
-        removes = t.inlet_end == TubeEnd::Open || t.outlet_end == TubeEnd::Open;
+        removes = !t.periodic && (t.inlet() == TubeEnd::Open || t.outlet() == TubeEnd::Open);
         // Box around the tube with one diameter of margin at the ends.
         let end = add(origin, scale(axis, length));
         box_lo = [0.0; 3];
@@ -332,20 +343,34 @@ fn geometry(scene: &Scene, dmax: Real) -> Result<Geometry, SceneError> {
             box_lo[k] = origin[k].min(end[k]) - half - dmax;
             box_hi[k] = origin[k].max(end[k]) + half + dmax;
         }
+        if t.periodic {
+            // The box spans the section exactly along the axis: its length is the period.
+            let k = periodic_axis(axis).ok_or_else(|| {
+                field_err(
+                    "tube.axis",
+                    "a periodic tube lies along x, y or z (the periodic box is axis-aligned)",
+                )
+            })?;
+            box_lo[k] = origin[k].min(end[k]);
+            box_hi[k] = origin[k].max(end[k]);
+            periodic[k] = true;
+        }
         tube_geom = Some(TubeGeometry {
             origin,
             axis,
             radius,
             length,
-            inlet_open: t.inlet_end == TubeEnd::Open,
-            outlet_open: t.outlet_end == TubeEnd::Open,
+            inlet_open: !t.periodic && t.inlet() == TubeEnd::Open,
+            outlet_open: !t.periodic && t.outlet() == TubeEnd::Open,
+            periodic: t.periodic,
             slab_half,
         });
     } else {
         let b = f.domain.as_ref().expect("checked: tube or domain");
         box_lo = b.min.map(|q| q.si);
         box_hi = b.max.map(|q| q.si);
-        removes = true;
+        periodic = b.periodic;
+        removes = periodic.iter().any(|p| !p);
     }
     for w in &f.walls {
         walls.push(Wall {
@@ -357,12 +382,33 @@ fn geometry(scene: &Scene, dmax: Real) -> Result<Geometry, SceneError> {
             friction: None,
         });
     }
+    // Three cells of the neighbour grid along each periodic direction (one pair, one image).
+    let cell = 2.0 * (0.5 * dmax) + skin;
+    for k in 0..3 {
+        if periodic[k] && box_hi[k] - box_lo[k] < 3.0 * cell {
+            let field = if f.tube.is_some() {
+                "tube.length"
+            } else {
+                "domain.max"
+            };
+            return Err(field_err(
+                field,
+                format!(
+                    "a periodic length of {:.4e} m is under three neighbour cells (3 × (d_max + \
+                     skin) = {:.4e} m): a grain would meet its own image",
+                    box_hi[k] - box_lo[k],
+                    3.0 * cell
+                ),
+            ));
+        }
+    }
     Ok(Geometry {
         walls,
         box_lo,
         box_hi,
         tube: tube_geom,
         removes,
+        periodic,
     })
 }
 

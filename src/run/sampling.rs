@@ -305,9 +305,11 @@ fn plug_window(o: &crate::scene::schema::OutputSpec) -> PlugWindow {
     }
 }
 
-/// Grains whose centre lies inside the tube (all grains without a tube).
+/// Grains whose centre lies inside the tube (all grains without a tube, or in a periodic
+/// section: between neighbour builds a grain may sit up to a skin past its seam, still in it).
 fn particles_in_tube(cfg: &DemConfig, p: &ParticleView) -> usize {
     match &cfg.tube {
+        Some(t) if t.periodic => p.len(),
         Some(t) => p
             .position
             .iter()

@@ -157,7 +157,10 @@ pub fn map(scene: &Scene, cfg: &DemConfig) -> Result<Mapped, Refusal> {
     let mut push = |s: String| c.push(s);
     push("atom_style granular".into());
     push("atom_modify map array".into());
-    push("boundary f f f".into());
+    // Periodic directions (a periodic tube's axis, a box's periodic faces) wrap in LIGGGHTS
+    // as in the built-in engine: the box spans the period exactly.
+    let edge = |k: usize| if cfg.periodic[k] { "p" } else { "f" };
+    push(format!("boundary {} {} {}", edge(0), edge(1), edge(2)));
     push("newton off".into());
     push("communicate single vel yes".into());
     push("units si".into());

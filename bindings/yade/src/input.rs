@@ -207,6 +207,18 @@ pub fn map(scene: &Scene, cfg: &DemConfig) -> Result<Setup, Refusal> {
             "a LIGGGHTS input file is for the LIGGGHTS engine",
         ));
     }
+    if cfg.periodic.iter().any(|&p| p) {
+        let field = if cfg.tube.is_some() {
+            "tube.periodic"
+        } else {
+            "domain.periodic"
+        };
+        return Err(refuse(
+            field,
+            "periodic boxes are not mapped to YADE (its periodic cell wraps all three \
+             directions; not cross-checked); use dem.engine = \"native\" or \"liggghts\"",
+        ));
+    }
     if !matches!(cfg.rolling, RollingSet::None) {
         return Err(refuse(
             "contact.rolling",

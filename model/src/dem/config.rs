@@ -174,6 +174,8 @@ pub struct TubeGeometry {
     pub inlet_open: bool,
     /// Grains leave through the outlet end (counted as outflow).
     pub outlet_open: bool,
+    /// A periodic section: no ends; grains leaving one come back at the other.
+    pub periodic: bool,
     /// Quasi-2D: half the slab's thickness, m (the grains keep |(x − origin)·e1| ≤ this).
     pub slab_half: Option<Real>,
 }
@@ -254,6 +256,9 @@ pub struct DemConfig {
     /// Simulation box, m.
     pub box_lo: Vec3,
     pub box_hi: Vec3,
+    /// Lab directions along which the box wraps around (a periodic tube's axis, a
+    /// `[domain]`'s periodic faces).
+    pub periodic: [bool; 3],
     /// The tube, if any.
     pub tube: Option<TubeGeometry>,
     /// The inlet, if any.

@@ -224,6 +224,8 @@ pub struct ForceInputs<'a, N, T, R> {
     pub start: &'a [u32],
     /// Partner j of each pair.
     pub partner: &'a [u32],
+    /// Periodic boxes: the image shift of each pair's partner, m; empty otherwise.
+    pub offset: &'a [Vec3],
     /// Per wall, the grains that may touch it.
     pub near_wall: &'a [Vec<u32>],
 }
@@ -349,8 +351,10 @@ fn pair_contacts<N: NormalLaw, T: TangentialLaw, R: RollingLaw, S: Sizes>(
         grains: g,
         start,
         partner,
+        offset,
         ..
     } = inputs;
+    let periodic = !offset.is_empty();
     let lo = out.lo;
     let hi = lo + out.force.len();
     let sc = out.scratch;
@@ -385,7 +389,12 @@ fn pair_contacts<N: NormalLaw, T: TangentialLaw, R: RollingLaw, S: Sizes>(
         for (k, &j) in (k0..k1).zip(&partner[k0..k1]) {
             let j = j as usize;
             let rs = ri + sizes.radius(&g, j);
-            let d = sub(g.position[j], xi);
+            let mut d = sub(g.position[j], xi);
+            if periodic {
+                // Across a periodic seam: the partner's image (a shift fixed at the build).
+                let o = offset[k];
+                d = [d[0] + o[0], d[1] + o[1], d[2] + o[2]];
+            }
             let touch = norm2(d) < rs * rs;
             // (nc ≤ k − hist_off < room − LANES: every slot written lies in the lists.)
             pair[nc] = k as u32;
@@ -850,6 +859,7 @@ mod tests {
             grains: g,
             start: &s.start,
             partner: &s.partner,
+            offset: &[],
             near_wall: &near,
         };
         body(inputs, out);

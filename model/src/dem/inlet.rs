@@ -26,12 +26,13 @@ pub fn leave_verdict(cfg: &DemConfig, x: Vec3, r: Real) -> Leave {
             let rel = sub(x, t.origin);
             let s = dot(rel, t.axis);
             let radial2 = norm2(sub(rel, scale(t.axis, s)));
+            // A periodic section has no ends: along its axis grains only wrap around.
+            let beyond_ends = !t.periodic && (s < -t.length || s > 2.0 * t.length);
             if t.outlet_open && s > t.length {
                 Leave::Outlet
             } else if (t.inlet_open && s < 0.0)
                 || radial2 > (t.radius + 2.0 * r).powi(2)
-                || s < -t.length
-                || s > 2.0 * t.length
+                || beyond_ends
             {
                 Leave::Lost
             } else {
@@ -39,7 +40,7 @@ pub fn leave_verdict(cfg: &DemConfig, x: Vec3, r: Real) -> Leave {
             }
         }
         None => {
-            if (0..3).any(|k| x[k] < cfg.box_lo[k] || x[k] > cfg.box_hi[k]) {
+            if (0..3).any(|k| !cfg.periodic[k] && (x[k] < cfg.box_lo[k] || x[k] > cfg.box_hi[k])) {
                 Leave::Lost
             } else {
                 Leave::Stay
@@ -58,9 +59,10 @@ pub fn leave_margin(cfg: &DemConfig, x: Vec3, r: Real) -> Real {
             let rel = sub(x, t.origin);
             let s = dot(rel, t.axis);
             let radial = norm2(sub(rel, scale(t.axis, s))).sqrt();
-            let mut margin = (t.radius + 2.0 * r - radial)
-                .min(s + t.length)
-                .min(2.0 * t.length - s);
+            let mut margin = t.radius + 2.0 * r - radial;
+            if !t.periodic {
+                margin = margin.min(s + t.length).min(2.0 * t.length - s);
+            }
             if t.outlet_open {
                 margin = margin.min(t.length - s);
             }
@@ -70,6 +72,7 @@ pub fn leave_margin(cfg: &DemConfig, x: Vec3, r: Real) -> Real {
             margin
         }
         None => (0..3)
+            .filter(|&k| !cfg.periodic[k])
             .map(|k| (x[k] - cfg.box_lo[k]).min(cfg.box_hi[k] - x[k]))
             .fold(Real::INFINITY, Real::min),
     }

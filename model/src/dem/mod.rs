@@ -111,7 +111,12 @@ pub struct NativeDem {
 impl NativeDem {
     /// Build the engine from a checked configuration and place the initial grains.
     pub fn new(cfg: DemConfig) -> Result<Self, crate::scene::SceneError> {
-        let grid = CellGrid::new(cfg.box_lo, cfg.box_hi, 2.0 * cfg.radius_max + cfg.skin);
+        let grid = CellGrid::periodic(
+            cfg.box_lo,
+            cfg.box_hi,
+            2.0 * cfg.radius_max + cfg.skin,
+            cfg.periodic,
+        );
         let nw = cfg.walls.len();
         let mut dem = NativeDem {
             rng: Rng::new(cfg.seed),
@@ -690,6 +695,7 @@ impl ForceJob<'_> {
             grains: g,
             start,
             partner,
+            offset: &nl.offset,
             near_wall: &nl.near_wall,
         };
         let bounds = self.bounds;

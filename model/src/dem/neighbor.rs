@@ -5,6 +5,13 @@
 //! no pair can have come into contact unseen: a pair closes by at most its two drifts). At each build the grains are re-sorted by cell so that
 //! neighbours sit close in memory, and the tangential history of every live contact is
 //! carried over by the grains' stable ids.
+//!
+//! Periodic directions (a periodic pipe section, a chute): the cells wrap around, and a pair
+//! found across the seam keeps the image shift of its partner (`offset`, m) until the next
+//! build, as LAMMPS's neighbour lists do: positions are wrapped back into the box at each
+//! build only, so between builds x_j + offset − x_i is the pair's separation. A pair is
+//! listed once (j > i, from the one image within reach: a periodic direction holds at
+//! least three cells).
 
 use super::state::ParticleState;
 use super::team::{share, Shared, Team};
@@ -26,6 +33,8 @@ struct RowScratch {
     cost: Vec<u64>,
     /// Per wall: the rows' grains near it, ascending.
     near: Vec<Vec<u32>>,
+    /// Periodic boxes: the image shift of each partner, row after row, m.
+    offset: Vec<Vec3>,
 }
 
 impl RowScratch {
@@ -55,7 +64,9 @@ impl RowScratch {
         self.partner.clear();
         self.count.clear();
         self.cost.clear();
+        self.offset.clear();
         let dims = grid.dims;
+        let periodic = grid.is_periodic();
         let (x, r) = (&s.position[..], &s.radius[..]);
         for i in lo..hi {
             let (xi, ri) = (x[i], r[i]);
@@ -63,29 +74,58 @@ impl RowScratch {
             let before = self.partner.len();
             let mut contacts = 0u64;
             for dz in -1i64..=1 {
-                let z = c[2] as i64 + dz;
-                if z < 0 || z >= dims[2] as i64 {
+                let Some((z, shift_z)) = grid.neighbour(2, c[2], dz) else {
                     continue;
-                }
+                };
                 for dy in -1i64..=1 {
-                    let y = c[1] as i64 + dy;
-                    if y < 0 || y >= dims[1] as i64 {
+                    let Some((y, shift_y)) = grid.neighbour(1, c[1], dy) else {
                         continue;
-                    }
-                    let x0 = (c[0] as i64 - 1).max(0) as usize;
-                    let x1 = (c[0] + 1).min(dims[0] - 1);
-                    let row = grid.index([0, y as usize, z as usize]);
-                    let (a, b) = (
-                        cell_start[row + x0] as usize,
-                        cell_start[row + x1 + 1] as usize,
-                    );
-                    for j in a.max(i + 1)..b {
-                        let touch = ri + r[j];
-                        let reach = touch + skin;
-                        let d2 = norm2(sub(x[j], xi));
-                        if d2 < reach * reach {
-                            self.partner.push(j as u32);
-                            contacts += u64::from(d2 < touch * touch);
+                    };
+                    let row = grid.index([0, y, z]);
+                    // The fastest direction as runs of cells: one run without wrapping, each
+                    // cell on its own when the direction is periodic.
+                    let mut runs = [(0usize, 0usize, [0.0; 3]); 3];
+                    let nruns = if grid.wrap[0].is_some() {
+                        for (k, dx) in (-1i64..=1).enumerate() {
+                            let (cx, sx) = grid.neighbour(0, c[0], dx).expect("periodic");
+                            runs[k] = (cx, cx, sx);
+                        }
+                        3
+                    } else {
+                        let x0 = (c[0] as i64 - 1).max(0) as usize;
+                        let x1 = (c[0] + 1).min(dims[0] - 1);
+                        runs[0] = (x0, x1, [0.0; 3]);
+                        1
+                    };
+                    for &(x0, x1, shift_x) in &runs[..nruns] {
+                        let (a, b) = (
+                            cell_start[row + x0] as usize,
+                            cell_start[row + x1 + 1] as usize,
+                        );
+                        if !periodic {
+                            for j in a.max(i + 1)..b {
+                                let touch = ri + r[j];
+                                let reach = touch + skin;
+                                let d2 = norm2(sub(x[j], xi));
+                                if d2 < reach * reach {
+                                    self.partner.push(j as u32);
+                                    contacts += u64::from(d2 < touch * touch);
+                                }
+                            }
+                            continue;
+                        }
+                        let shift: Vec3 =
+                            std::array::from_fn(|k| shift_x[k] + shift_y[k] + shift_z[k]);
+                        for j in a.max(i + 1)..b {
+                            let touch = ri + r[j];
+                            let reach = touch + skin;
+                            let d = sub(x[j], xi);
+                            let d2 = norm2([d[0] + shift[0], d[1] + shift[1], d[2] + shift[2]]);
+                            if d2 < reach * reach {
+                                self.partner.push(j as u32);
+                                self.offset.push(shift);
+                                contacts += u64::from(d2 < touch * touch);
+                            }
                         }
                     }
                 }
@@ -123,11 +163,21 @@ pub struct CellGrid {
     dims: [usize; 3],
     /// The lab direction (0 = x, 1 = y, 2 = z) of each cell coordinate, fastest first.
     axes: [usize; 3],
+    /// Per cell coordinate (fastest first): the box's length when the direction is
+    /// periodic, m.
+    wrap: [Option<Real>; 3],
 }
 
 impl CellGrid {
     /// Grid over the box [lo, hi] with cells at least `cell` wide.
     pub fn new(lo: Vec3, hi: Vec3, cell: Real) -> Self {
+        Self::periodic(lo, hi, cell, [false; 3])
+    }
+
+    /// Grid over the box [lo, hi] with cells at least `cell` wide, wrapping around along
+    /// the lab directions marked `periodic` (each must hold at least three cells, so that
+    /// a grain's neighbour cells are distinct and a pair is found through one image only).
+    pub fn periodic(lo: Vec3, hi: Vec3, cell: Real, periodic: [bool; 3]) -> Self {
         let mut dims = [1usize; 3];
         let mut size = cell;
         for k in 0..3 {
@@ -150,11 +200,57 @@ impl CellGrid {
         axes[0] = rest.next().expect("two others");
         axes[1] = rest.next().expect("two others");
         axes[2] = slowest;
+        for k in 0..3 {
+            assert!(
+                !periodic[k] || dims[k] >= 3,
+                "a periodic direction needs three cells (checked with the scene)"
+            );
+        }
         Self {
             lo,
             inv_cell: 1.0 / width.max(cell),
             dims: axes.map(|k| dims[k]),
             axes,
+            wrap: axes.map(|k| periodic[k].then(|| hi[k] - lo[k])),
+        }
+    }
+
+    /// True when some direction wraps around.
+    pub fn is_periodic(&self) -> bool {
+        self.wrap.iter().any(Option::is_some)
+    }
+
+    /// The cell `step` (−1, 0, 1) from coordinate `c` along cell direction `k`, and the
+    /// image shift of the grains found there (m, lab frame); None past a box end that does
+    /// not wrap.
+    #[inline]
+    fn neighbour(&self, k: usize, c: usize, step: i64) -> Option<(usize, Vec3)> {
+        let n = self.dims[k] as i64;
+        let to = c as i64 + step;
+        let mut shift = [0.0; 3];
+        if (0..n).contains(&to) {
+            return Some((to as usize, shift));
+        }
+        let length = self.wrap[k]?;
+        // Past the upper end the partner's image lies one length up, past the lower end
+        // one length down.
+        shift[self.axes[k]] = if to < 0 { -length } else { length };
+        Some((to.rem_euclid(n) as usize, shift))
+    }
+
+    /// Bring positions back into the box along its periodic directions (between builds
+    /// grains may stray past a periodic end by less than the skin).
+    pub fn wrap_positions(&self, x: &mut [Vec3]) {
+        for (k, &a) in self.axes.iter().enumerate() {
+            if let Some(length) = self.wrap[k] {
+                let lo = self.lo[a];
+                for p in x.iter_mut() {
+                    let u = p[a] - lo;
+                    if !(0.0..length).contains(&u) {
+                        p[a] = lo + u.rem_euclid(length);
+                    }
+                }
+            }
         }
     }
 
@@ -192,6 +288,9 @@ pub struct NeighborList {
     pub start: Vec<u32>,
     /// Partner indices j > i.
     pub partner: Vec<u32>,
+    /// Periodic boxes: the image shift of each pair's partner, m (x_j + offset − x_i is the
+    /// pair's separation); empty without periodic directions.
+    pub offset: Vec<Vec3>,
     /// Tangential shear displacement of each pair as seen from i, m.
     pub history: Vec<Vec3>,
     /// Per wall, ascending: the grains within one skin of it at the build. No other grain
@@ -233,6 +332,8 @@ pub struct NeighborList {
 pub struct NeighborKeep {
     start: Vec<u32>,
     partner: Vec<u32>,
+    #[serde(default)]
+    offset: Vec<Vec3>,
     history: Vec<Vec3>,
     near_wall: Vec<Vec<u32>>,
     cost: Vec<u64>,
@@ -248,6 +349,7 @@ impl NeighborList {
         NeighborKeep {
             start: self.start.clone(),
             partner: self.partner.clone(),
+            offset: self.offset.clone(),
             history: self.history.clone(),
             near_wall: self.near_wall.clone(),
             cost: self.cost.clone(),
@@ -270,11 +372,15 @@ impl NeighborList {
                 k.history.len()
             ));
         }
+        if !k.offset.is_empty() && k.offset.len() != pairs {
+            return Err("the neighbour list's image shifts do not fit its pairs".to_string());
+        }
         if k.partner.iter().any(|&j| j as usize >= grains) {
             return Err("a neighbour index lies past the last grain".to_string());
         }
         self.start = k.start;
         self.partner = k.partner;
+        self.offset = k.offset;
         self.history = k.history;
         self.near_wall = k.near_wall;
         self.cost = k.cost;
@@ -308,6 +414,8 @@ impl NeighborList {
             self.stash_history(state);
         }
         let members = team.members_for(n, MIN_ROWS_PER_MEMBER);
+        // 0. Periodic directions: every grain back into the box.
+        grid.wrap_positions(&mut state.position);
         // 1. Each grain's cell.
         self.cell.resize(n, 0);
         {
@@ -359,6 +467,7 @@ impl NeighborList {
         // 4. The members' rows joined in order.
         self.start.clear();
         self.partner.clear();
+        self.offset.clear();
         self.cost.clear();
         self.start.push(0);
         self.near_wall.resize(walls.len(), Vec::new());
@@ -371,6 +480,7 @@ impl NeighborList {
                 self.start.push(last + count);
             }
             self.partner.extend_from_slice(&rows.partner);
+            self.offset.extend_from_slice(&rows.offset);
             self.cost.extend_from_slice(&rows.cost);
             for (near, mine) in self.near_wall.iter_mut().zip(&rows.near) {
                 near.extend_from_slice(mine);
@@ -476,6 +586,7 @@ impl NeighborList {
             new_index[i] = k as u32;
         }
         let with_history = self.history.len() == self.partner.len();
+        let with_offset = !self.offset.is_empty();
         let mut out = 0usize;
         let mut new_start = Vec::with_capacity(keep.len() + 1);
         new_start.push(0u32);
@@ -488,12 +599,18 @@ impl NeighborList {
                     if with_history {
                         self.history[out] = self.history[k];
                     }
+                    if with_offset {
+                        self.offset[out] = self.offset[k];
+                    }
                     out += 1;
                 }
             }
             new_start.push(out as u32);
         }
         self.partner.truncate(out);
+        if with_offset {
+            self.offset.truncate(out);
+        }
         if with_history {
             self.history.truncate(out);
         }

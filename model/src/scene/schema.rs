@@ -200,11 +200,14 @@ pub struct TubeSpec {
     #[serde(default = "default_origin")]
     pub origin: [Q<Length>; 3],
     /// Inlet end. Default `closed`.
-    #[serde(default = "default_closed")]
-    pub inlet_end: TubeEnd,
+    pub inlet_end: Option<TubeEnd>,
     /// Outlet end. Default `open`.
-    #[serde(default = "default_open")]
-    pub outlet_end: TubeEnd,
+    pub outlet_end: Option<TubeEnd>,
+    /// A periodic section of a long pipe: grains leaving one end come back at the other,
+    /// touching grains across the seam (no ends, no inlet). Axis along x, y or z. Default
+    /// false.
+    #[serde(default)]
+    pub periodic: bool,
     /// Quasi-2D (as seed 004's model): the grains live in a slab this thick through the axis,
     /// between two planes normal to the gas grid's first cross direction; the gas grid
     /// counts only the slab's volume. At least one grain diameter, below the tube's.
@@ -221,12 +224,6 @@ fn default_axis() -> [Finite; 3] {
 fn default_origin() -> [Q<Length>; 3] {
     [Q::si(0.0), Q::si(0.0), Q::si(0.0)]
 }
-fn default_closed() -> TubeEnd {
-    TubeEnd::Closed
-}
-fn default_open() -> TubeEnd {
-    TubeEnd::Open
-}
 
 /// An axis-aligned box, m. Grains leaving it are removed (counted as lost).
 #[derive(Debug, Clone, Deserialize)]
@@ -236,6 +233,22 @@ pub struct DomainSpec {
     pub min: [Q<Length>; 3],
     /// Upper corner, m.
     pub max: [Q<Length>; 3],
+    /// Per direction (x, y, z): grains leaving one face come back at the opposite one.
+    /// Default none (grains leaving the box are removed).
+    #[serde(default)]
+    pub periodic: [bool; 3],
+}
+
+impl TubeSpec {
+    /// The inlet end as the tube has it (`closed` unless given; none when periodic).
+    pub fn inlet(&self) -> TubeEnd {
+        self.inlet_end.unwrap_or(TubeEnd::Closed)
+    }
+
+    /// The outlet end as the tube has it (`open` unless given; none when periodic).
+    pub fn outlet(&self) -> TubeEnd {
+        self.outlet_end.unwrap_or(TubeEnd::Open)
+    }
 }
 
 /// Grain size and material: either `diameter` (monodisperse) or `diameter_min` and
