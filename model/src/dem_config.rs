@@ -3,16 +3,17 @@
 //! with a field error. (The engine itself, `dem/`, reads only this configuration.)
 
 use crate::dem::config::{
-    open_cross_section, DemConfig, InitialConfig, InletConfig, LawSet, RollingSet,
+    open_cross_section, DemConfig, GivenGrain, InitialConfig, InletConfig, LawSet, RollingSet,
     TangentialChoice, TangentialSet, TimeStepReport, TubeGeometry,
 };
 use crate::dem::contact::{ConstantTorque, Hertz, Hooke, RollingPair};
 use crate::dem::placement::{perpendicular_basis, Region};
-use crate::dem::vec3::{add, normalized, scale};
+use crate::dem::vec3::{add, dot, norm, normalized, scale, sub};
 use crate::dem::walls::{Wall, WallShape};
 use crate::scene::{NormalLawName, RollingLawName, Scene, SceneError, TangentialLawName, TubeEnd};
 use crate::{Real, Vec3};
 use std::f64::consts::PI;
+use std::path::Path;
 
 /// Grain sizes and density, as every part of the configuration needs them.
 struct Grains {
@@ -65,7 +66,7 @@ pub fn dem_config(scene: &Scene) -> Result<DemConfig, SceneError> {
     } = geometry(scene, g.dmax, skin)?;
     laws.attach_walls(&walls);
     let inlet = inlet_config(scene, tube.as_ref(), &g)?;
-    let initial = initial_config(scene, tube.as_ref(), box_lo, box_hi)?;
+    let initial = initial_config(scene, tube.as_ref(), box_lo, box_hi, &g)?;
     Ok(DemConfig {
         dt,
         dt_report,
@@ -88,6 +89,7 @@ pub fn dem_config(scene: &Scene) -> Result<DemConfig, SceneError> {
         seed: f.seed,
         removes_grains: removes,
         max_impact_velocity: v_max,
+        settle: f.dem.settle.map(|t| t.si),
     })
 }
 
@@ -482,56 +484,228 @@ fn inlet_config(
     Ok(inlet)
 }
 
-/// `[initial]` in engine terms (None without one).
+/// `[initial]` in engine terms (None without one): grains from a file, or grains to place
+/// in a stretch, a shaped plug and/or a resting layer (or a box's z range).
 fn initial_config(
     scene: &Scene,
     tube: Option<&TubeGeometry>,
     box_lo: Vec3,
     box_hi: Vec3,
+    g: &Grains,
 ) -> Result<Option<InitialConfig>, SceneError> {
     let f = &scene.file;
-    let initial = match &f.initial {
-        Some(ini) => {
-            let region = match tube {
-                Some(t) => {
-                    if ini.from.si < 0.0 || ini.to.si > t.length {
-                        return Err(field_err(
-                            "initial.to",
-                            format!(
-                                "the stretch [{}, {}] m must lie inside the tube [0, {}] m",
-                                ini.from.si, ini.to.si, t.length
-                            ),
-                        ));
-                    }
-                    Region::TubeStretch {
-                        origin: t.origin,
-                        axis: t.axis,
-                        radius: t.radius,
-                        slab_half: t.slab_half,
-                        from: ini.from.si,
-                        to: ini.to.si,
-                    }
-                }
-                None => {
-                    let mut lo = box_lo;
-                    let mut hi = box_hi;
-                    lo[2] = ini.from.si;
-                    hi[2] = ini.to.si;
-                    Region::Box { lo, hi }
-                }
-            };
-            Some(InitialConfig {
-                count: ini.count,
-                region,
-                velocity: ini
-                    .velocity
-                    .map(|v| [v[0].si, v[1].si, v[2].si])
-                    .unwrap_or([0.0; 3]),
-            })
-        }
-        None => None,
+    let Some(ini) = &f.initial else {
+        return Ok(None);
     };
-    Ok(initial)
+    if let Some(path) = &ini.file {
+        let grains = read_grain_file(Path::new(path), g, tube, box_lo, box_hi)?;
+        return Ok(Some(InitialConfig::Given(grains)));
+    }
+    let count = ini.count.expect("checked: count or file");
+    let stretch = ini.from.zip(ini.to).map(|(a, b)| (a.si, b.si));
+    let region = match tube {
+        Some(t) => {
+            if let Some((from, to)) = stretch {
+                if from < 0.0 || to > t.length {
+                    return Err(field_err(
+                        "initial.to",
+                        format!(
+                            "the stretch [{from}, {to}] m must lie inside the tube [0, {}] m",
+                            t.length
+                        ),
+                    ));
+                }
+            }
+            if ini.layer_height.is_none() && ini.end_angle.is_none() {
+                let (from, to) = stretch.expect("checked: a stretch or a layer");
+                Region::TubeStretch {
+                    origin: t.origin,
+                    axis: t.axis,
+                    radius: t.radius,
+                    slab_half: t.slab_half,
+                    from,
+                    to,
+                }
+            } else {
+                // Up: against gravity, across the axis (checked to be non-zero).
+                let gv = f.gravity.map(|q| q.si);
+                let across = sub(gv, scale(t.axis, dot(gv, t.axis)));
+                let up = scale(normalized(across), -1.0);
+                let cot = ini
+                    .end_angle
+                    .map_or(0.0, |a| 1.0 / a.0.to_radians().tan())
+                    .max(0.0);
+                Region::TubeShape {
+                    origin: t.origin,
+                    axis: t.axis,
+                    radius: t.radius,
+                    slab_half: t.slab_half,
+                    length: t.length,
+                    up,
+                    plug: stretch.map(|(from, to)| (from, to, cot)),
+                    layer: ini.layer_height.map(|h| h.si),
+                }
+            }
+        }
+        None => {
+            let (from, to) = stretch.expect("checked: a box fill is a z stretch");
+            let mut lo = box_lo;
+            let mut hi = box_hi;
+            lo[2] = from;
+            hi[2] = to;
+            Region::Box { lo, hi }
+        }
+    };
+    Ok(Some(InitialConfig::Placed {
+        count,
+        region,
+        velocity: ini
+            .velocity
+            .map(|v| [v[0].si, v[1].si, v[2].si])
+            .unwrap_or([0.0; 3]),
+    }))
+}
+
+/// The grains of an `initial.file`: CSV, a header naming `x,y,z,radius` and optionally
+/// `vx,vy,vz` (SI), one grain per line. Each grain is checked: finite numbers, a radius
+/// within the scene's `[particles]` range (1e-9 relative), inside the tube or box, and no
+/// overlap deeper than 5 % of the smaller radius with another (a bed settled by another
+/// code overlaps by a fraction of a percent; deeper, the first step would blow it apart).
+fn read_grain_file(
+    path: &Path,
+    g: &Grains,
+    tube: Option<&TubeGeometry>,
+    box_lo: Vec3,
+    box_hi: Vec3,
+) -> Result<Vec<GivenGrain>, SceneError> {
+    const FIELD: &str = "initial.file";
+    let text = std::fs::read_to_string(path)
+        .map_err(|e| field_err(FIELD, format!("{}: {e}", path.display())))?;
+    let mut lines = text
+        .lines()
+        .enumerate()
+        .filter(|(_, l)| !l.trim().is_empty() && !l.trim_start().starts_with('#'));
+    let (_, header) = lines
+        .next()
+        .ok_or_else(|| field_err(FIELD, format!("{}: empty", path.display())))?;
+    let names: Vec<&str> = header.split(',').map(str::trim).collect();
+    let column = |name: &str| names.iter().position(|n| *n == name);
+    let (Some(cx), Some(cy), Some(cz), Some(cr)) =
+        (column("x"), column("y"), column("z"), column("radius"))
+    else {
+        return Err(field_err(
+            FIELD,
+            format!(
+                "{}: the header `{header}` must name the columns x, y, z, radius (and \
+                 optionally vx, vy, vz)",
+                path.display()
+            ),
+        ));
+    };
+    let velocity = match (column("vx"), column("vy"), column("vz")) {
+        (Some(a), Some(b), Some(c)) => Some([a, b, c]),
+        (None, None, None) => None,
+        _ => {
+            return Err(field_err(
+                FIELD,
+                format!("{}: give all of vx, vy, vz or none", path.display()),
+            ))
+        }
+    };
+    let mut grains = Vec::new();
+    for (k, line) in lines {
+        let at =
+            |what: String| field_err(FIELD, format!("{} line {}: {what}", path.display(), k + 1));
+        let cells: Vec<&str> = line.split(',').map(str::trim).collect();
+        if cells.len() != names.len() {
+            return Err(at(format!(
+                "{} values for {} columns",
+                cells.len(),
+                names.len()
+            )));
+        }
+        let num = |c: usize| -> Result<Real, SceneError> {
+            cells[c]
+                .parse::<Real>()
+                .ok()
+                .filter(|v| v.is_finite())
+                .ok_or_else(|| {
+                    at(format!(
+                        "`{}` ({}) is not a finite number",
+                        cells[c], names[c]
+                    ))
+                })
+        };
+        let x = [num(cx)?, num(cy)?, num(cz)?];
+        let r = num(cr)?;
+        if !(r >= g.rmin * (1.0 - 1e-9) && r <= g.rmax * (1.0 + 1e-9)) {
+            return Err(at(format!(
+                "radius {r} m lies outside the scene's grains [{}, {}] m",
+                g.rmin, g.rmax
+            )));
+        }
+        let v = match velocity {
+            Some([a, b, c]) => [num(a)?, num(b)?, num(c)?],
+            None => [0.0; 3],
+        };
+        let inside = match tube {
+            Some(t) => {
+                let rel = sub(x, t.origin);
+                let s = dot(rel, t.axis);
+                let radial = norm(sub(rel, scale(t.axis, s)));
+                radial + r <= t.radius * (1.0 + 1e-9) && s >= 0.0 && s <= t.length
+            }
+            None => (0..3).all(|c| x[c] >= box_lo[c] && x[c] <= box_hi[c]),
+        };
+        if !inside {
+            return Err(at(format!(
+                "the grain at {x:?} m does not lie inside the {}",
+                if tube.is_some() { "tube" } else { "box" }
+            )));
+        }
+        grains.push(GivenGrain {
+            position: x,
+            radius: r,
+            velocity: v,
+            line: k + 1,
+        });
+    }
+    if grains.is_empty() {
+        return Err(field_err(FIELD, format!("{}: no grains", path.display())));
+    }
+    // Overlaps, on a hash grid of cells one largest diameter wide.
+    let cell = 2.0 * g.rmax;
+    let key = |x: Vec3| x.map(|c| (c / cell).floor() as i64);
+    let mut grid: std::collections::HashMap<[i64; 3], Vec<usize>> = Default::default();
+    for (i, gr) in grains.iter().enumerate() {
+        grid.entry(key(gr.position)).or_default().push(i);
+    }
+    for (i, a) in grains.iter().enumerate() {
+        let c = key(a.position);
+        for d in 0..27i64 {
+            let n = [c[0] + d % 3 - 1, c[1] + (d / 3) % 3 - 1, c[2] + d / 9 - 1];
+            for &j in grid.get(&n).map_or(&[][..], |v| &v[..]) {
+                if j <= i {
+                    continue;
+                }
+                let b = &grains[j];
+                let overlap = a.radius + b.radius - norm(sub(a.position, b.position));
+                if overlap > 0.05 * a.radius.min(b.radius) {
+                    return Err(field_err(
+                        FIELD,
+                        format!(
+                            "{}: the grains of lines {} and {} overlap by {overlap:.3e} m, over \
+                             5 % of a radius",
+                            path.display(),
+                            a.line,
+                            b.line
+                        ),
+                    ));
+                }
+            }
+        }
+    }
+    Ok(grains)
 }
 
 fn field_err(field: impl Into<String>, reason: impl Into<String>) -> SceneError {

@@ -211,10 +211,28 @@ pub fn open_cross_section(radius: Real, slab_half: Option<Real>) -> Real {
 
 /// The initial fill in engine terms.
 #[derive(Debug, Clone)]
-pub struct InitialConfig {
-    pub count: u64,
-    pub region: Region,
+pub enum InitialConfig {
+    /// `count` grains placed at random in `region`, all moving at `velocity`.
+    Placed {
+        count: u64,
+        region: Region,
+        velocity: Vec3,
+    },
+    /// The grains of a file (`initial.file`), as given.
+    Given(Vec<GivenGrain>),
+}
+
+/// A grain from an `initial.file`.
+#[derive(Debug, Clone, Copy)]
+pub struct GivenGrain {
+    /// Centre, m.
+    pub position: Vec3,
+    /// Radius, m.
+    pub radius: Real,
+    /// Velocity, m/s.
     pub velocity: Vec3,
+    /// Its line in the file (for messages).
+    pub line: usize,
 }
 
 /// Time-step figures, reported with the run.
@@ -276,4 +294,7 @@ pub struct DemConfig {
     pub removes_grains: bool,
     /// Largest impact speed expected (sets the Hertz contact time), m/s.
     pub max_impact_velocity: Real,
+    /// Settle the initial grains under gravity, the DEM alone, for this long before the
+    /// run's clock starts, s.
+    pub settle: Option<Real>,
 }

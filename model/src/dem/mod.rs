@@ -23,7 +23,8 @@ pub mod vec3;
 pub mod walls;
 
 pub use config::{
-    DemConfig, LawSet, LawVisitor, RollingSet, TangentialChoice, TangentialSet, TubeGeometry,
+    DemConfig, GivenGrain, InitialConfig, LawSet, LawVisitor, RollingSet, TangentialChoice,
+    TangentialSet, TubeGeometry,
 };
 
 use std::time::Instant;
@@ -152,30 +153,71 @@ impl NativeDem {
             angular_velocity_pred: Vec::new(),
             cfg,
         };
-        if let Some(init) = dem.cfg.initial.clone() {
-            let radii: Vec<Real> = (0..init.count)
-                .map(|_| draw_radius(&dem.cfg, &mut dem.rng))
-                .collect();
-            let placed = place(&init.region, &radii, &[], &mut dem.rng, 20_000);
-            if placed.len() < radii.len() {
-                return Err(crate::scene::SceneError::field(
-                    "initial.count",
-                    format!(
-                        "only {} of {} grains fit without overlap between `initial.from` and \
-                         `initial.to` (random placement saturates near 35 % solids); lengthen \
-                         the stretch",
-                        placed.len(),
-                        radii.len()
-                    ),
-                ));
+        match dem.cfg.initial.clone() {
+            Some(InitialConfig::Placed {
+                count,
+                region,
+                velocity,
+            }) => {
+                let radii: Vec<Real> = (0..count)
+                    .map(|_| draw_radius(&dem.cfg, &mut dem.rng))
+                    .collect();
+                let placed = place(&region, &radii, &[], &mut dem.rng, 20_000);
+                if placed.len() < radii.len() {
+                    return Err(crate::scene::SceneError::field(
+                        "initial.count",
+                        format!(
+                            "only {} of {} grains fit without overlap in the `[initial]` \
+                             region (random placement saturates near 35 % solids); enlarge it \
+                             and let `dem.settle` pack them",
+                            placed.len(),
+                            radii.len()
+                        ),
+                    ));
+                }
+                for (x, r) in placed.into_iter().zip(radii) {
+                    let id = dem.next_id;
+                    dem.next_id += 1;
+                    dem.state.push(id, x, velocity, r, dem.cfg.density, nw);
+                }
             }
-            for (x, r) in placed.into_iter().zip(radii) {
-                let id = dem.next_id;
-                dem.next_id += 1;
-                dem.state.push(id, x, init.velocity, r, dem.cfg.density, nw);
+            Some(InitialConfig::Given(grains)) => {
+                for g in grains {
+                    let id = dem.next_id;
+                    dem.next_id += 1;
+                    dem.state
+                        .push(id, g.position, g.velocity, g.radius, dem.cfg.density, nw);
+                }
             }
+            None => {}
+        }
+        if let Some(t) = dem.cfg.settle {
+            dem.settle(t)?;
         }
         Ok(dem)
+    }
+
+    /// Let the grains settle under gravity for `duration` seconds with nothing fed, then
+    /// start the clock (time, steps, flow counters and wall forces at zero): the run begins
+    /// from the bed at rest. Grains lost meanwhile (a box's open faces) are gone.
+    fn settle(&mut self, duration: Real) -> Result<(), crate::scene::SceneError> {
+        let inlet = self.cfg.inlet.take();
+        let steps = (duration / self.cfg.dt).round().max(1.0) as u64;
+        let outcome = DemBackend::advance(self, steps);
+        self.cfg.inlet = inlet;
+        outcome.map_err(|e| {
+            crate::scene::SceneError::field(
+                "dem.settle",
+                format!("the initial grains did not settle: {e}"),
+            )
+        })?;
+        self.time = 0.0;
+        self.step = 0;
+        self.flow = FlowCounters::default();
+        for w in &mut self.wall_force {
+            *w = [0.0; 3];
+        }
+        Ok(())
     }
 
     /// The configuration in force.

@@ -4,7 +4,7 @@
 //! Random sequential addition saturates near 38 % solids in bulk (less against walls), so a
 //! request denser than that places fewer grains; callers see how many were placed.
 
-use super::vec3::{add, norm2, scale, sub};
+use super::vec3::{add, dot, norm2, scale, sub};
 use crate::rng::Rng;
 use crate::{Real, Vec3};
 use std::collections::HashMap;
@@ -24,6 +24,22 @@ pub enum Region {
     },
     /// Axis-aligned box.
     Box { lo: Vec3, hi: Vec3 },
+    /// A shaped fill of a tube of `length`: a plug over s ∈ [from, to] whose end faces lean
+    /// at `end_angle` to the axis (the plug is shorter by h cot θ at each end at height h
+    /// above the tube's lowest line), and/or a resting layer of `layer` height along the
+    /// whole tube; heights measured along `up` (against gravity, across the axis).
+    TubeShape {
+        origin: Vec3,
+        axis: Vec3,
+        radius: Real,
+        slab_half: Option<Real>,
+        length: Real,
+        up: Vec3,
+        /// (from, to, cot θ) of the plug, m, m, 1.
+        plug: Option<(Real, Real, Real)>,
+        /// Layer height, m.
+        layer: Option<Real>,
+    },
 }
 
 /// Two unit vectors perpendicular to `axis` and to each other (the gas grid's frame: the
@@ -60,6 +76,46 @@ impl Region {
                     add(add(*origin, scale(*axis, s)), scale(e1, u)),
                     scale(e2, v),
                 ))
+            }
+            Region::TubeShape {
+                origin,
+                axis,
+                radius,
+                slab_half,
+                length,
+                up,
+                plug,
+                layer,
+            } => {
+                // Uniform over the tube, kept where the grain lies wholly in the plug or
+                // the layer (rejection: the shape is a good share of the tube in practice).
+                let whole = Region::TubeStretch {
+                    origin: *origin,
+                    axis: *axis,
+                    radius: *radius,
+                    slab_half: *slab_half,
+                    from: 0.0,
+                    to: *length,
+                };
+                for _ in 0..10_000 {
+                    let x = whole.sample(r, rng)?;
+                    let rel = sub(x, *origin);
+                    let s = dot(rel, *axis);
+                    // Height of the centre above the tube's lowest line.
+                    let h = radius + dot(rel, *up);
+                    let in_layer = layer.is_some_and(|top| h + r <= top);
+                    let in_plug = plug.is_some_and(|(from, to, cot)| {
+                        // The faces lean in towards the top: at height H the plug spans
+                        // [from + H cot θ, to − H cot θ]; the grain is held to the span at
+                        // its top (h + r), the narrowest it reaches.
+                        let lean = (h + r) * cot;
+                        s - r >= from + lean && s + r <= to - lean
+                    });
+                    if in_layer || in_plug {
+                        return Some(x);
+                    }
+                }
+                None
             }
             Region::Box { lo, hi } => {
                 let mut x = [0.0; 3];

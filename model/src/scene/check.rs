@@ -539,24 +539,137 @@ fn check_feed(f: &SceneFile, dmax: Real) -> Result<(), SceneError> {
         }
     }
     if let Some(ini) = &f.initial {
-        if ini.count > MAX_GRAINS {
-            return Err(field_err(
-                "initial.count",
-                format!(
-                    "{} grains is over the limit of {MAX_GRAINS} (≈ 1 kB of memory each, and \
-                     the steps to move them)",
-                    ini.count
-                ),
-            ));
+        check_initial(f, ini)?;
+    }
+    if let Some(t) = f.dem.settle {
+        if t.si <= 0.0 {
+            return Err(field_err("dem.settle", "must be positive"));
         }
-        if ini.to.si <= ini.from.si {
+        if f.initial.is_none() {
             return Err(field_err(
-                "initial.to",
-                "must be greater than `initial.from`",
+                "dem.settle",
+                "settles the `[initial]` grains, and this scene has none",
             ));
         }
     }
     Ok(())
+}
+
+/// `[initial]`: a file, or placed grains in a plug stretch and/or a resting layer.
+fn check_initial(f: &SceneFile, ini: &InitialSpec) -> Result<(), SceneError> {
+    if ini.file.is_some() {
+        for (given, name) in [
+            (ini.count.is_some(), "initial.count"),
+            (ini.from.is_some(), "initial.from"),
+            (ini.to.is_some(), "initial.to"),
+            (ini.layer_height.is_some(), "initial.layer_height"),
+            (ini.end_angle.is_some(), "initial.end_angle"),
+            (ini.velocity.is_some(), "initial.velocity"),
+        ] {
+            if given {
+                return Err(field_err(
+                    name,
+                    "the grains come from `initial.file` (velocities in its vx, vy, vz \
+                     columns); remove it",
+                ));
+            }
+        }
+        return Ok(());
+    }
+    let count = ini.count.ok_or_else(|| {
+        field_err(
+            "initial.count",
+            "missing: give the number of grains to place (or `initial.file`)",
+        )
+    })?;
+    if count > MAX_GRAINS {
+        return Err(field_err(
+            "initial.count",
+            format!(
+                "{count} grains is over the limit of {MAX_GRAINS} (≈ 1 kB of memory each, and \
+                 the steps to move them)"
+            ),
+        ));
+    }
+    match (ini.from, ini.to) {
+        (Some(from), Some(to)) => {
+            if to.si <= from.si {
+                return Err(field_err(
+                    "initial.to",
+                    "must be greater than `initial.from`",
+                ));
+            }
+        }
+        (None, None) if ini.layer_height.is_some() => {}
+        (None, None) => {
+            return Err(field_err(
+                "initial.from",
+                "missing: give the stretch `from`/`to`, a `layer_height`, or both",
+            ))
+        }
+        (Some(_), None) => return Err(field_err("initial.to", "missing: `from` needs `to`")),
+        (None, Some(_)) => return Err(field_err("initial.from", "missing: `to` needs `from`")),
+    }
+    if let Some(a) = ini.end_angle {
+        if ini.from.is_none() {
+            return Err(field_err(
+                "initial.end_angle",
+                "inclines the ends of the `from`/`to` stretch, which is not given",
+            ));
+        }
+        if !(a.0 > 0.0 && a.0 <= 90.0) {
+            return Err(field_err(
+                "initial.end_angle",
+                "must lie in (0, 90] degrees (90: square ends)",
+            ));
+        }
+    }
+    if ini.layer_height.is_some() || ini.end_angle.is_some() {
+        let name = if ini.layer_height.is_some() {
+            "initial.layer_height"
+        } else {
+            "initial.end_angle"
+        };
+        let Some(t) = &f.tube else {
+            return Err(field_err(
+                name,
+                "shapes a fill of the tube; this scene has none",
+            ));
+        };
+        // "Up" is against gravity across the tube: gravity must have a part across it.
+        let a = normalize3(t.axis.map(|c| c.0));
+        let g = f.gravity.map(|q| q.si);
+        let along = g[0] * a[0] + g[1] * a[1] + g[2] * a[2];
+        let across = (g[0] * g[0] + g[1] * g[1] + g[2] * g[2] - along * along)
+            .max(0.0)
+            .sqrt();
+        if across <= 1e-9 * (g[0].abs() + g[1].abs() + g[2].abs()) || across == 0.0 {
+            return Err(field_err(
+                name,
+                "measures height against gravity across the tube; here gravity has no part \
+                 across it",
+            ));
+        }
+        if let Some(h) = ini.layer_height {
+            if !(h.si > 0.0 && h.si <= t.diameter.si) {
+                return Err(field_err(
+                    "initial.layer_height",
+                    format!("must lie in (0, {}] m (the tube's diameter)", t.diameter.si),
+                ));
+            }
+        }
+    }
+    Ok(())
+}
+
+/// `v` scaled to unit length (zero stays zero).
+fn normalize3(v: [Real; 3]) -> [Real; 3] {
+    let n = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
+    if n > 0.0 {
+        [v[0] / n, v[1] / n, v[2] / n]
+    } else {
+        v
+    }
 }
 
 /// `[output]`.

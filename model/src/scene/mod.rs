@@ -62,20 +62,30 @@ impl Scene {
             source,
         })?;
         let scene = Self::parse(&text, overrides)?;
-        // A LIGGGHTS input named relative to the scene file: make it absolute, so the scene
-        // (and the JSON handed to the engine) means the same from any folder.
-        match &scene.file.dem.liggghts_input {
-            Some(input) if Path::new(input).is_relative() => {
-                let dir = path.parent().unwrap_or(Path::new("."));
-                let abs = std::path::absolute(dir.join(input)).unwrap_or(dir.join(input));
-                let mut all = overrides.to_vec();
+        // Files named relative to the scene file (a LIGGGHTS input, the initial grains): made
+        // absolute, so the scene (and the JSON handed to the engine) means the same from any
+        // folder.
+        let dir = path.parent().unwrap_or(Path::new("."));
+        let mut all = overrides.to_vec();
+        for (field, name) in [
+            ("dem.liggghts_input", scene.file.dem.liggghts_input.as_ref()),
+            (
+                "initial.file",
+                scene.file.initial.as_ref().and_then(|i| i.file.as_ref()),
+            ),
+        ] {
+            if let Some(name) = name.filter(|n| Path::new(n).is_relative()) {
+                let abs = std::path::absolute(dir.join(name)).unwrap_or(dir.join(name));
                 all.push(format!(
-                    "dem.liggghts_input={}",
+                    "{field}={}",
                     toml::Value::String(abs.display().to_string())
                 ));
-                Self::parse(&text, &all)
             }
-            _ => Ok(scene),
+        }
+        if all.len() == overrides.len() {
+            Ok(scene)
+        } else {
+            Self::parse(&text, &all)
         }
     }
 

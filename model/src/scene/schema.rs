@@ -379,6 +379,9 @@ pub struct DemSpec {
     /// Largest impact velocity expected, m/s: sets the Hertz contact time. Default 1 m/s.
     #[serde(default = "default_impact_velocity")]
     pub max_impact_velocity: Q<Velocity>,
+    /// Let the `[initial]` grains settle under gravity, the DEM alone, for this long before
+    /// the run starts (its clock starts after: the gas and the inlet see a bed at rest).
+    pub settle: Option<Q<Time>>,
 }
 
 impl Default for DemSpec {
@@ -394,6 +397,7 @@ impl Default for DemSpec {
             skin: None,
             threads: default_threads(),
             max_impact_velocity: default_impact_velocity(),
+            settle: None,
         }
     }
 }
@@ -438,14 +442,24 @@ pub struct InletSpec {
 #[derive(Debug, Clone, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct InitialSpec {
-    /// Number of grains.
-    pub count: u64,
-    /// Start of the filled stretch along the tube axis (or z without a tube), m.
-    pub from: Q<Length>,
+    /// Number of grains placed at random (not with `file`).
+    pub count: Option<u64>,
+    /// Start of the filled stretch along the tube axis (or z without a tube), m. With
+    /// `from` and `to` the stretch is filled across the whole section: a plug.
+    pub from: Option<Q<Length>>,
     /// End of the filled stretch, m.
-    pub to: Q<Length>,
+    pub to: Option<Q<Length>>,
     /// Initial velocity of every grain, m/s. Default zero.
     pub velocity: Option<[Q<Velocity>; 3]>,
+    /// A resting layer this high above the tube's lowest line (against gravity), along the
+    /// whole tube, m; with `from`/`to` as well, the grains fill the plug and the layer.
+    pub layer_height: Option<Q<Length>>,
+    /// The plug's end faces inclined to the axis by this angle, degrees (90: square ends;
+    /// 45: each face leans out by the tube's height, the plug longer at the bottom).
+    pub end_angle: Option<Finite>,
+    /// Grains from a file instead of placed ones: CSV with the header `x,y,z,radius` and
+    /// optionally `vx,vy,vz` (SI units), one grain per line; relative to the scene's folder.
+    pub file: Option<String>,
 }
 
 /// A plane wall; grains live on the side its normal points to.
