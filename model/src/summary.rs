@@ -50,8 +50,12 @@ pub struct Summary {
     #[serde(deserialize_with = "nullable")]
     pub particles_in_tube_mean: Real,
     pub particles_final: usize,
-    /// None: the engine keeps no flow counters.
+    /// None: the engine keeps no flow counters, or a periodic section (no outlet).
     pub mass_outflow_kg_per_h: Option<Real>,
+    /// A periodic section: the mean solids mass flow through any cross-section after the
+    /// settling time, Σ m_i v_i·axis / L, kg/h (absent for open tubes: see the outflow).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub solids_mass_flow_kg_per_h: Option<Real>,
     pub mass_inflow_kg_per_h: Option<Real>,
     pub grains_fed: Option<u64>,
     pub grains_out: Option<u64>,
@@ -340,6 +344,7 @@ pub fn test_summary(status: &str, wall_time_s: Real, pressure_drop: Option<Real>
         particles_in_tube_mean: 0.0,
         particles_final: 0,
         mass_outflow_kg_per_h: None,
+        solids_mass_flow_kg_per_h: None,
         mass_inflow_kg_per_h: None,
         grains_fed: None,
         grains_out: None,

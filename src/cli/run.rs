@@ -97,8 +97,7 @@ fn print_outcome(sm: &Summary, out_dir: &std::path::Path) {
         eprintln!("warning: {w}");
     }
     say!(
-        "done: {} s simulated in {:.1} s wall; {} grains in tube (mean); outflow {:.3} kg/h; \
-         summary in {}",
+        "done: {} s simulated in {:.1} s wall; {} grains in tube (mean); {}; summary in {}",
         sm.simulated_time_s,
         sm.wall_time_s,
         if sm.particles_in_tube_mean.is_finite() {
@@ -106,7 +105,11 @@ fn print_outcome(sm: &Summary, out_dir: &std::path::Path) {
         } else {
             "not measured".into()
         },
-        sm.mass_outflow_kg_per_h.unwrap_or(0.0),
+        match (sm.solids_mass_flow_kg_per_h, sm.mass_outflow_kg_per_h) {
+            (Some(m), _) => format!("solids mass flow {m:.3} kg/h through a section"),
+            (None, Some(m)) => format!("outflow {m:.3} kg/h"),
+            (None, None) => "outflow not measured".into(),
+        },
         out_dir.join("summary.json").display()
     );
     if let Some(g) = &sm.gas {

@@ -44,6 +44,7 @@ pub fn summarize(e: &Ending) -> Summary {
         }
     }
     let flow = dem.flow();
+    let periodic = cfg.tube.is_some_and(|t| t.periodic);
     let feed = feed_account(cfg, dem);
     let wall_means = s.wall_force_means().unwrap_or_default();
     let (t_settle, m_settle) = s
@@ -150,7 +151,9 @@ pub fn summarize(e: &Ending) -> Summary {
             Real::NAN
         },
         particles_final: dem.particles().len(),
-        mass_outflow_kg_per_h: outflow_rate,
+        mass_outflow_kg_per_h: outflow_rate.filter(|_| !periodic),
+        solids_mass_flow_kg_per_h: (periodic && s.in_tube_n > 0)
+            .then(|| s.mass_flow_sum / s.in_tube_n as Real * 3600.0),
         mass_inflow_kg_per_h: flow.map(|f| {
             if dem.time() > 0.0 {
                 f.fed_mass / dem.time() * 3600.0

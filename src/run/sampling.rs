@@ -19,6 +19,10 @@ pub struct Sampling {
     pub settle: Real,
     pub in_tube_sum: Real,
     pub in_tube_n: u64,
+    /// A periodic section: the sum over samples after the settling time of the solids mass
+    /// flow through a cross-section, Σ m_i v_i·axis / L, kg/s.
+    #[serde(default)]
+    pub mass_flow_sum: Real,
     pub dp_sum: Real,
     /// Time and outflow mass at the first sample after the settling time.
     pub outflow_at_settle: Option<(Real, Real)>,
@@ -86,6 +90,7 @@ impl Sampling {
             settle: f.output.settling_time.map(|q| q.si).unwrap_or(0.0),
             in_tube_sum: 0.0,
             in_tube_n: 0,
+            mass_flow_sum: 0.0,
             dp_sum: 0.0,
             outflow_at_settle: None,
             tracker,
@@ -178,6 +183,9 @@ impl Sampling {
                 self.outflow_at_settle = Some((time, outflow_mass(dem)));
             }
             self.in_tube_sum += in_tube as Real;
+            if let Some(t) = cfg.tube.filter(|t| t.periodic) {
+                self.mass_flow_sum += section_mass_flow(cfg, &t, &dem.particles());
+            }
             self.dp_sum += dp.unwrap_or(0.0);
             self.in_tube_n += 1;
             for (sum, f) in self.wall_force_sums.iter_mut().zip(&wall_forces) {
@@ -320,6 +328,22 @@ fn particles_in_tube(cfg: &DemConfig, p: &ParticleView) -> usize {
             .count(),
         None => p.len(),
     }
+}
+
+/// The solids mass flow through a cross-section of a periodic section, kg/s: in a period
+/// of length L every grain crosses a given section v·axis/L times per second, so the mean
+/// flow through any section is Σ m_i v_i·axis / L.
+fn section_mass_flow(cfg: &DemConfig, t: &crate::dem::TubeGeometry, p: &ParticleView) -> Real {
+    let momentum: Real = p
+        .velocity
+        .iter()
+        .zip(p.radius)
+        .map(|(v, &r)| {
+            let m = cfg.density * 4.0 / 3.0 * std::f64::consts::PI * r * r * r;
+            m * (v[0] * t.axis[0] + v[1] * t.axis[1] + v[2] * t.axis[2])
+        })
+        .sum();
+    momentum / t.length
 }
 
 /// Mass that has left through the outlet so far, kg (0 without the engine's counters).
