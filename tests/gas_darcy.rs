@@ -269,3 +269,76 @@ fn background_pressure_only_sets_the_time_scale() {
     let (_, s2) = run(2e5, 1.0, 30);
     assert!((s1 / s2 - 1.0).abs() < 1e-9, "steady {s1} vs {s2}");
 }
+
+/// A periodic section of `nz` slices (1 × 1 across) under the flow controller at `v_s`.
+fn periodic_section(nz: usize, v_s: f64) -> (TubeGrid, DarcyGas) {
+    let mut grid = TubeGrid::new([0.0; 3], [0.0, 0.0, 1.0], R, L, nz, 1, 1);
+    grid.periodic = true;
+    let gas = DarcyGas::new(
+        grid.clone(),
+        params(Scheme::Bdf2, SolvePath::Monolithic, v_s),
+    );
+    (grid, gas)
+}
+
+#[test]
+fn a_periodic_empty_section_is_driven_by_darcys_gradient_at_once() {
+    // Uniform porosity: P̃ stays uniform, the gas flows at U = κ G / η everywhere, and the
+    // controller's first guess η U / κ(φ) is exact when φ is the clamp's top (the empty
+    // tube); at φ = 0.6 its one whole step (U linear in G at fixed P̃) lands on the target.
+    // Tolerance 1e-12 relative: rounding of sums over 50 faces.
+    let (v_s, mu, d) = (0.3, 1.8e-5, 1e-4);
+    for phi in [0.999, 0.6] {
+        let (grid, mut gas) = periodic_section(50, v_s);
+        let f = uniform(&grid, phi);
+        for _ in 0..3 {
+            gas.step(&f, 1e-4).unwrap();
+        }
+        let g = mu * v_s / carman_kozeny(d, phi);
+        let rel = |a: f64, b: f64| (a - b).abs() / b.abs();
+        assert!(
+            rel(gas.pressure_drop_per_length(), g) < 1e-12,
+            "φ = {phi}: G = {} vs {g}",
+            gas.pressure_drop_per_length()
+        );
+        assert!(
+            rel(gas.mean_superficial_velocity(), v_s) < 1e-12,
+            "U = {}",
+            gas.mean_superficial_velocity()
+        );
+        for (n, grad) in gas.pressure_gradient().iter().enumerate() {
+            assert!(rel(-grad[2], g) < 1e-9, "node {n}: ∂P/∂z = {}", grad[2]);
+        }
+    }
+}
+
+#[test]
+fn a_periodic_frozen_bed_carries_the_series_resistance_of_its_slices() {
+    // Porosity varying along the section (a plug between looser gaps), grains at rest: at
+    // steady state every face carries the same flux U A, so G L = Σ_faces η U dz / κ_face
+    // with κ_face the harmonic mean of its two nodes (the solver's face law), the seam's
+    // face included. Steady after 200 steps of 1 ms (the diffusion time L²/D ~ 1e-3 s);
+    // tolerance 1e-9 relative.
+    let (v_s, mu, d, nz) = (0.2, 1.8e-5, 1e-4, 40);
+    let (grid, mut gas) = periodic_section(nz, v_s);
+    let mut f = uniform(&grid, 0.0);
+    for k in 0..nz {
+        let s = (k as f64 + 0.5) / nz as f64;
+        f.porosity[k] = 0.55 + 0.35 * (std::f64::consts::PI * 2.0 * s).cos().powi(2);
+    }
+    for _ in 0..200 {
+        gas.step(&f, 1e-3).unwrap();
+    }
+    let kappa: Vec<f64> = f.porosity.iter().map(|&p| carman_kozeny(d, p)).collect();
+    let dz = L / nz as f64;
+    let resistance: f64 = (0..nz)
+        .map(|k| {
+            let (a, b) = (kappa[k], kappa[(k + 1) % nz]);
+            dz / (2.0 * a * b / (a + b))
+        })
+        .sum();
+    let g = mu * v_s * resistance / L;
+    let got = gas.pressure_drop_per_length();
+    assert!((got - g).abs() < 1e-9 * g, "G = {got} vs series law {g}");
+    assert!((gas.mean_superficial_velocity() - v_s).abs() < 1e-9 * v_s);
+}

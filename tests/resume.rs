@@ -434,26 +434,33 @@ fn a_sweep_rerun_skips_finished_variants_and_resumes_the_rest() {
     }
 }
 
-/// A periodic tube section (grains across the seam with their image shifts and contact
-/// histories, rolling resistance) resumes to the same bits.
+/// Periodic tube sections (grains across the seam with their image shifts and contact
+/// histories, rolling resistance; and one with the d'Arcy gas under its flow controller,
+/// whose driving gradient the checkpoint keeps) resume to the same bits.
 #[test]
 fn a_resumed_periodic_section_is_the_uninterrupted_run_bit_for_bit() {
-    let scene = Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("tests/scenes/good/periodic_tube_section.toml")
-        .display()
-        .to_string();
-    let sets = [INTERVAL, SNAPSHOTS, SETTLE, "dem.threads=2"];
-    let straight = fresh("periodic_straight");
-    let (code, text) = run(&scene, &straight, "0.2", &sets, &[]);
-    assert_eq!(code, 0, "{text}");
-    let parts = fresh("periodic_parts");
-    let (code, text) = run(&scene, &parts, "0.1", &sets, &[]);
-    assert_eq!(code, 0, "{text}");
-    let resume = ["--resume", parts.to_str().unwrap()];
-    let (code, text) = run(&scene, &parts, "0.2", &sets, &resume);
-    assert_eq!(code, 0, "{text}");
-    assert_same_run(&straight, &parts, "periodic section, 0.1 s + resumed 0.1 s");
-    for d in [straight, parts] {
-        std::fs::remove_dir_all(d).ok();
+    for (name, tag) in [
+        ("periodic_tube_section.toml", "dem"),
+        ("periodic_vertical_section_gas.toml", "gas"),
+    ] {
+        let scene = Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("tests/scenes/good")
+            .join(name)
+            .display()
+            .to_string();
+        let sets = [INTERVAL, SNAPSHOTS, SETTLE, "dem.threads=2"];
+        let straight = fresh(&format!("periodic_{tag}_straight"));
+        let (code, text) = run(&scene, &straight, "0.2", &sets, &[]);
+        assert_eq!(code, 0, "{text}");
+        let parts = fresh(&format!("periodic_{tag}_parts"));
+        let (code, text) = run(&scene, &parts, "0.1", &sets, &[]);
+        assert_eq!(code, 0, "{text}");
+        let resume = ["--resume", parts.to_str().unwrap()];
+        let (code, text) = run(&scene, &parts, "0.2", &sets, &resume);
+        assert_eq!(code, 0, "{text}");
+        assert_same_run(&straight, &parts, &format!("{name}, 0.1 s + resumed 0.1 s"));
+        for d in [straight, parts] {
+            std::fs::remove_dir_all(d).ok();
+        }
     }
 }

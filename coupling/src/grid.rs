@@ -71,6 +71,9 @@ pub struct TubeGrid {
     /// cell would hold a porosity dominated by single grains (and a gas cell of no volume):
     /// grains weigh on the open nodes only.
     pub open: Vec<bool>,
+    /// A periodic section: the last slice neighbours the first (the tent weights wrap
+    /// around the seam; the gas solver joins the two).
+    pub periodic: bool,
 }
 
 /// Least open cross-section of a column, as a share of the largest, for it to carry nodes.
@@ -189,6 +192,7 @@ impl TubeGrid {
             face_y,
             face_z,
             open,
+            periodic: false,
         }
     }
 
@@ -253,7 +257,16 @@ impl TubeGrid {
             let t = f - k0 as Real;
             ([k0, k0 + 1], [1.0 - t, t])
         };
-        let (kz, wz) = axis_weights(s, 0.0, self.dz, self.nz);
+        let (kz, wz) = if self.periodic && self.nz > 1 {
+            // Around the seam: the slice below the first is the last.
+            let n = self.nz as Real;
+            let f = (s / self.dz - 0.5).rem_euclid(n);
+            let k0 = (f.floor() as usize).min(self.nz - 1);
+            let t = f - k0 as Real;
+            ([k0, (k0 + 1) % self.nz], [1.0 - t, t])
+        } else {
+            axis_weights(s, 0.0, self.dz, self.nz)
+        };
         let (kx, wx) = axis_weights(u, -self.radius, self.dx, self.nx);
         let (ky, wy) = axis_weights(w, -self.radius, self.dy, self.ny);
         let mut st = Stencil::default();
@@ -342,7 +355,9 @@ pub fn deposit_part(
     momentum.resize(n, [0.0; 3]);
     for p in 0..x.len() {
         let local = grid.local(x[p]);
-        if !(0.0..=grid.length).contains(&local.0) {
+        // (A periodic section holds every grain: between neighbour builds one may sit past
+        // the seam, and its weights wrap around.)
+        if !grid.periodic && !(0.0..=grid.length).contains(&local.0) {
             stencils[p] = None;
             continue;
         }
@@ -417,6 +432,28 @@ mod tests {
 
     fn paper_grid() -> TubeGrid {
         TubeGrid::new([0.0; 3], [0.0, 0.0, 1.0], 3.5e-3, 0.525, 150, 2, 2)
+    }
+
+    #[test]
+    fn periodic_weights_wrap_around_the_seam() {
+        // A grain a fifth of a slice past the seam (s = L + 0.2 dz, as it may lie between
+        // neighbour builds) weighs on the first slice (0.7) and the last (0.3): as a grain
+        // at 0.2 dz, the same point of the circle. Weights sum to one either way.
+        let mut g = TubeGrid::new([0.0; 3], [0.0, 0.0, 1.0], 3.5e-3, 0.1, 10, 1, 1);
+        g.periodic = true;
+        for s in [0.1 + 0.2 * g.dz, 0.2 * g.dz] {
+            let st = g.stencil([0.0, 0.0, s]);
+            let w = |k: usize| {
+                (0..st.len as usize)
+                    .filter(|&q| st.node[q] as usize == k)
+                    .map(|q| st.weight[q])
+                    .sum::<Real>()
+            };
+            assert!(
+                (w(0) - 0.7).abs() < 1e-9 && (w(9) - 0.3).abs() < 1e-9,
+                "s = {s}: {st:?}"
+            );
+        }
     }
 
     #[test]

@@ -98,6 +98,9 @@ struct DarcyState {
     steps: u64,
     phi: Vec<Real>,
     superficial_velocity: Real,
+    /// A periodic section's driving gradient, Pa/m.
+    #[serde(default)]
+    drive_gradient: Real,
 }
 
 /// The d'Arcy gas solver.
@@ -128,6 +131,13 @@ pub struct DarcyGas {
     /// Node indices of every grid line along the axis, e1 and e2 (for the sweeps).
     lines: [Vec<Vec<usize>>; 3],
     steps: u64,
+    /// A periodic section (the grid's `periodic`): the mean pressure gradient G that drives
+    /// the gas, Pa/m. The solver carries the periodic part P̃ of P' = P̃ − G s; the flow
+    /// controller sets G after each step so that the section's mean superficial gas velocity
+    /// is the scene's (as Lethe's flow control does with its driving force).
+    drive_gradient: Real,
+    /// The mean superficial gas velocity along the axis after the last step, m/s.
+    mean_superficial_velocity: Real,
 }
 
 impl DarcyGas {
@@ -168,6 +178,19 @@ impl DarcyGas {
                 }
             }
         }
+        if grid.periodic && grid.nz > 1 {
+            // The seam: the last slice joined to the first, as any two neighbours.
+            for j in 0..grid.ny {
+                for i in 0..grid.nx {
+                    edges.push(Edge {
+                        a: grid.node(grid.nz - 1, i, j),
+                        b: grid.node(0, i, j),
+                        area_over_dist: grid.face_z[i + grid.nx * j] / grid.dz,
+                        dir: 0,
+                    });
+                }
+            }
+        }
         let n = grid.len();
         // The system couples only nodes joined by an edge: its half-bandwidth.
         let half_bandwidth = edges.iter().map(|e| e.a.abs_diff(e.b)).max().unwrap_or(0);
@@ -198,9 +221,45 @@ impl DarcyGas {
             band: (half_bandwidth <= BAND_MAX).then(|| BandCholesky::new(n, half_bandwidth)),
             matrix: None,
             steps: 0,
+            // The empty tube's gradient for the target flow: the controller's first guess.
+            drive_gradient: params.viscosity * params.superficial_velocity
+                / carman_kozeny(params.grain_diameter, params.porosity_max),
+            mean_superficial_velocity: 0.0,
             grid,
             params,
         }
+    }
+
+    /// A periodic section's driving gradient G, Pa/m (the controller's last value).
+    pub fn drive_gradient(&self) -> Real {
+        self.drive_gradient
+    }
+
+    /// The section's mean superficial gas velocity along the axis after the last step, m/s:
+    /// (1/V) ∫ (φ u_s − (κ/η) ∂P/∂s) dV, the d'Arcy flux through every axial face plus the
+    /// gas the grains carry.
+    pub fn mean_superficial_velocity(&self) -> Real {
+        self.mean_superficial_velocity
+    }
+
+    /// Periodic sections: the mean superficial gas velocity of the pressures `p` (P̃) under
+    /// the gradient G, and dU/dG at fixed P̃ (the flow controller's sensitivity).
+    fn section_flow(&self, p: &[Real], velocity: &[Vec3]) -> (Real, Real) {
+        let g = &self.grid;
+        let p0 = self.params.p0;
+        let volume: Real = g.volume.iter().sum();
+        let (mut flow, mut slope) = (0.0, 0.0);
+        for (e, c) in self.edges.iter().zip(&self.cond) {
+            if e.dir == 0 {
+                // (c / P0) ΔP is the face's volume flux (m³/s); times dz, its share of ∫ U dV.
+                flow += c / p0 * (p[e.a] - p[e.b] + self.drive_gradient * g.dz) * g.dz;
+                slope += c / p0 * g.dz * g.dz;
+            }
+        }
+        for n in 0..g.len() {
+            flow += g.volume[n] * self.phi[n] * self.component(velocity[n], 0);
+        }
+        (flow / volume, slope / volume)
     }
 
     /// Set P' on the nodes (tests and restarts), Pa; forgets the previous step.
@@ -244,13 +303,25 @@ impl DarcyGas {
             self.source[n] = 0.0;
         }
         let last = g.nz - 1;
-        for j in 0..g.ny {
-            for i in 0..g.nx {
-                let area = g.face_z[i + g.nx * j];
-                let n_in = g.node(0, i, j);
-                self.source[n_in] += pr.p0 * pr.superficial_velocity * area;
-                let n_out = g.node(last, i, j);
-                self.c_out[n_out] = scale * kappa[n_out] * area / (0.5 * g.dz);
+        if g.periodic {
+            // No inlet or outlet: the gradient G drives the gas across every axial face
+            // (P_a − P_b = P̃_a − P̃_b + G dz), a known part moved to the sources.
+            for (e, c) in self.edges.iter().zip(&self.cond) {
+                if e.dir == 0 {
+                    let push = c * self.drive_gradient * g.dz;
+                    self.source[e.a] -= push;
+                    self.source[e.b] += push;
+                }
+            }
+        } else {
+            for j in 0..g.ny {
+                for i in 0..g.nx {
+                    let area = g.face_z[i + g.nx * j];
+                    let n_in = g.node(0, i, j);
+                    self.source[n_in] += pr.p0 * pr.superficial_velocity * area;
+                    let n_out = g.node(last, i, j);
+                    self.c_out[n_out] = scale * kappa[n_out] * area / (0.5 * g.dz);
+                }
             }
         }
         // −P0 ∇·u in flux form: the granular velocity through each face (average of the
@@ -269,11 +340,13 @@ impl DarcyGas {
             self.source[e.a] -= pr.p0 * flux;
             self.source[e.b] += pr.p0 * flux;
         }
-        for j in 0..g.ny {
-            for i in 0..g.nx {
-                let n = g.node(last, i, j);
-                let flux = self.component(u[n], 0).max(0.0) * g.face_z[i + g.nx * j];
-                self.source[n] -= pr.p0 * flux;
+        if !g.periodic {
+            for j in 0..g.ny {
+                for i in 0..g.nx {
+                    let n = g.node(last, i, j);
+                    let flux = self.component(u[n], 0).max(0.0) * g.face_z[i + g.nx * j];
+                    self.source[n] -= pr.p0 * flux;
+                }
             }
         }
         (clamped, low)
@@ -583,6 +656,16 @@ impl GasSolver for DarcyGas {
         } else {
             0.0
         };
+        if self.grid.periodic {
+            // The flow controller: U is linear in G at fixed P̃ with slope dU/dG; the step
+            // to the target is taken whole (a uniform bed then holds U exactly; P̃ answers
+            // a non-uniform one within a few steps).
+            let (flow, slope) = self.section_flow(&new_p, &fields.velocity);
+            self.mean_superficial_velocity = flow;
+            if slope > 0.0 {
+                self.drive_gradient += (self.params.superficial_velocity - flow) / slope;
+            }
+        }
         self.p_prev = std::mem::replace(&mut self.p, new_p);
         self.last_dt = Some(dt);
         self.steps = step;
@@ -606,6 +689,7 @@ impl GasSolver for DarcyGas {
             steps: self.steps,
             phi: self.phi.clone(),
             superficial_velocity: self.params.superficial_velocity,
+            drive_gradient: self.drive_gradient,
         };
         super::encode_state(&state, "d'Arcy")
     }
@@ -629,6 +713,9 @@ impl GasSolver for DarcyGas {
         self.steps = s.steps;
         self.phi = s.phi;
         self.params.superficial_velocity = s.superficial_velocity;
+        if self.grid.periodic {
+            self.drive_gradient = s.drive_gradient;
+        }
         Ok(())
     }
 
@@ -639,19 +726,30 @@ impl GasSolver for DarcyGas {
     ) -> Result<Option<Real>, GasError> {
         // What a step changes: pressures, the scheme's memory, the step count and the
         // porosity it used (scratch arrays are rebuilt by every step).
+        // (And a periodic section's driving gradient and measured flow.)
         let saved = (
             self.p.clone(),
             self.p_prev.clone(),
             self.last_dt,
             self.steps,
             self.phi.clone(),
+            (self.drive_gradient, self.mean_superficial_velocity),
         );
-        let restore = |me: &mut Self, s: &(Vec<Real>, Vec<Real>, Option<Real>, u64, Vec<Real>)| {
+        type Saved = (
+            Vec<Real>,
+            Vec<Real>,
+            Option<Real>,
+            u64,
+            Vec<Real>,
+            (Real, Real),
+        );
+        let restore = |me: &mut Self, s: &Saved| {
             me.p.clone_from(&s.0);
             me.p_prev.clone_from(&s.1);
             me.last_dt = s.2;
             me.steps = s.3;
             me.phi.clone_from(&s.4);
+            (me.drive_gradient, me.mean_superficial_velocity) = s.5;
         };
         let one = self.step(fields, dt).map(|_| self.p.clone());
         restore(self, &saved);
@@ -686,7 +784,12 @@ impl GasSolver for DarcyGas {
                     let p = &self.p;
                     // Along the axis: central differences; at the inlet the flux condition
                     // −(κ/η) ∂P/∂s = v_s, at the outlet P' = 0 half a cell beyond.
-                    let ds = if g.nz == 1 {
+                    let ds = if g.periodic && g.nz > 1 {
+                        // P' = P̃ − G s: P̃'s central difference around the seam, less G.
+                        let up = p[g.node((k + 1) % g.nz, i, j)];
+                        let down = p[g.node((k + g.nz - 1) % g.nz, i, j)];
+                        (up - down) / (2.0 * g.dz) - self.drive_gradient
+                    } else if g.nz == 1 {
                         -p[n] / (0.5 * g.dz)
                     } else if k == 0 {
                         let inlet = -pr.viscosity * pr.superficial_velocity
@@ -720,6 +823,10 @@ impl GasSolver for DarcyGas {
     }
 
     fn pressure_drop_per_length(&self) -> Real {
+        if self.grid.periodic {
+            // The mean of −∂P'/∂s over a period: G (P̃ is periodic).
+            return self.drive_gradient;
+        }
         let g = &self.grid;
         let (mut sum, mut area) = (0.0, 0.0);
         for j in 0..g.ny {

@@ -44,7 +44,7 @@ pub fn coupling_from_scene(scene: &Scene, dem: &DemConfig) -> Result<Option<Coup
             _ => unreachable!("checked in scene::check_gas"),
         };
         let [nz, nx, ny] = g.grid;
-        let grid = TubeGrid::new_in_slab(
+        let mut grid = TubeGrid::new_in_slab(
             tube.origin,
             tube.axis,
             tube.radius,
@@ -52,6 +52,7 @@ pub fn coupling_from_scene(scene: &Scene, dem: &DemConfig) -> Result<Option<Coup
             [nz, nx, ny],
             tube.slab_half,
         );
+        grid.periodic = tube.periodic;
         let d_mean = dem.radius_min + dem.radius_max;
         let params = DarcyParams {
             p0: g.pressure.si,

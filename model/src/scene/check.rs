@@ -279,10 +279,10 @@ fn check_rolling(f: &SceneFile) -> Result<(), SceneError> {
     Ok(())
 }
 
-/// `tube.periodic` and `domain.periodic`: a periodic section has no ends and no inlet, and
-/// (for now) no gas: the periodic gas and its flow controller are not built yet.
+/// `tube.periodic` and `domain.periodic`: a periodic section has no ends and no inlet; its
+/// gas is the d'Arcy gas (monolithic solve, no pressure taps) under a flow controller.
 fn check_periodic(f: &SceneFile) -> Result<(), SceneError> {
-    let (periodic, field) = match (&f.tube, &f.domain) {
+    let periodic = match (&f.tube, &f.domain) {
         (Some(t), _) => {
             if t.periodic {
                 for (given, name) in [
@@ -298,10 +298,10 @@ fn check_periodic(f: &SceneFile) -> Result<(), SceneError> {
                     }
                 }
             }
-            (t.periodic, "tube.periodic")
+            t.periodic
         }
-        (None, Some(d)) => (d.periodic.iter().any(|&p| p), "domain.periodic"),
-        (None, None) => (false, "tube.periodic"),
+        (None, Some(d)) => d.periodic.iter().any(|&p| p),
+        (None, None) => false,
     };
     if !periodic {
         return Ok(());
@@ -312,12 +312,28 @@ fn check_periodic(f: &SceneFile) -> Result<(), SceneError> {
             "a periodic section has no inlet: it starts from its `[initial]` grains",
         ));
     }
-    if f.gas.is_some() {
-        return Err(field_err(
-            field,
-            "not with a [gas] yet: the periodic gas and its flow controller are not built \
-             (issue 22); run the periodic section without [gas]",
-        ));
+    if let Some(g) = &f.gas {
+        if g.model != "darcy" {
+            return Err(field_err(
+                "gas.model",
+                "a periodic section runs with the `darcy` gas (the periodic `simple` gas is \
+                 not built yet)",
+            ));
+        }
+        if g.solver == GasSolverPath::Splitting {
+            return Err(field_err(
+                "gas.solver",
+                "`splitting` solves along open lines; a periodic section's axial lines close \
+                 on themselves: use `monolithic`",
+            ));
+        }
+        if !f.output.pressure_taps.is_empty() {
+            return Err(field_err(
+                "output.pressure_taps",
+                "a periodic section has no inlet and outlet pressures to tap; its driving \
+                 gradient is the run's pressure drop",
+            ));
+        }
     }
     Ok(())
 }
