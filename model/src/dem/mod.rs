@@ -117,7 +117,15 @@ impl NativeDem {
             cfg.box_hi,
             2.0 * cfg.radius_max + cfg.skin,
             cfg.periodic,
-        );
+        )
+        .map_err(|why| {
+            let field = if cfg.tube.is_some() {
+                "tube.length"
+            } else {
+                "domain.periodic"
+            };
+            crate::scene::SceneError::field(field, why)
+        })?;
         let nw = cfg.walls.len();
         let mut dem = NativeDem {
             rng: Rng::new(cfg.seed),

@@ -171,13 +171,17 @@ pub struct CellGrid {
 impl CellGrid {
     /// Grid over the box [lo, hi] with cells at least `cell` wide.
     pub fn new(lo: Vec3, hi: Vec3, cell: Real) -> Self {
-        Self::periodic(lo, hi, cell, [false; 3])
+        match Self::periodic(lo, hi, cell, [false; 3]) {
+            Ok(grid) => grid,
+            Err(_) => unreachable!("only a periodic direction can be refused"),
+        }
     }
 
     /// Grid over the box [lo, hi] with cells at least `cell` wide, wrapping around along
     /// the lab directions marked `periodic` (each must hold at least three cells, so that
-    /// a grain's neighbour cells are distinct and a pair is found through one image only).
-    pub fn periodic(lo: Vec3, hi: Vec3, cell: Real, periodic: [bool; 3]) -> Self {
+    /// a grain's neighbour cells are distinct and a pair is found through one image only;
+    /// refused otherwise, naming the direction).
+    pub fn periodic(lo: Vec3, hi: Vec3, cell: Real, periodic: [bool; 3]) -> Result<Self, String> {
         let mut dims = [1usize; 3];
         let mut size = cell;
         for k in 0..3 {
@@ -200,19 +204,24 @@ impl CellGrid {
         axes[0] = rest.next().expect("two others");
         axes[1] = rest.next().expect("two others");
         axes[2] = slowest;
-        for k in 0..3 {
-            assert!(
-                !periodic[k] || dims[k] >= 3,
-                "a periodic direction needs three cells (checked with the scene)"
-            );
+        // (The scene check asks for three cells of the finest grid; a huge box whose cells
+        // had to grow past the cap can still fall short.)
+        if let Some(k) = (0..3).find(|&k| periodic[k] && dims[k] < 3) {
+            return Err(format!(
+                "the periodic direction {} holds {} neighbour cells of {:.4e} m (a box this \
+                 large takes cells over the least size); three are needed",
+                ["x", "y", "z"][k],
+                dims[k],
+                (hi[k] - lo[k]) / dims[k] as Real
+            ));
         }
-        Self {
+        Ok(Self {
             lo,
             inv_cell: 1.0 / width.max(cell),
             dims: axes.map(|k| dims[k]),
             axes,
             wrap: axes.map(|k| periodic[k].then(|| hi[k] - lo[k])),
-        }
+        })
     }
 
     /// True when some direction wraps around.
@@ -687,6 +696,74 @@ mod tests {
 
     /// The box's longest direction is the slowest cell coordinate (the others keep their
     /// order), so cells, and the grains sorted by them, come in slices across a tube.
+    #[test]
+    fn a_periodic_direction_short_of_three_cells_is_refused() {
+        // 5 cells along periodic z at the least size, but the box is so wide that the
+        // cells grow past the cap and z keeps fewer than three: refused, naming z.
+        let err = CellGrid::periodic([0.0; 3], [100.0, 100.0, 5e-3], 1e-3, [false, false, true])
+            .expect_err("refused");
+        assert!(err.contains("direction z"), "{err}");
+        assert!(
+            CellGrid::periodic([0.0; 3], [0.01, 0.01, 5e-3], 1e-3, [false, false, true]).is_ok()
+        );
+    }
+
+    #[test]
+    fn a_periodic_list_is_every_pair_within_reach_of_the_nearest_image() {
+        // A box periodic along x (the fastest cell direction, cut cell by cell) and z (the
+        // slowest), not y: the list is every pair closer than r_i + r_j + skin by the
+        // nearest image, once, and each pair's shift is the one that image takes.
+        let (l, skin) = ([0.012, 0.02, 0.009], 2e-4);
+        let mut rng = Rng::new(5);
+        let mut s = ParticleState::default();
+        for id in 0..400u64 {
+            let x = [
+                l[0] * rng.uniform(),
+                l[1] * rng.uniform(),
+                l[2] * rng.uniform(),
+            ];
+            s.push(id, x, [0.0; 3], 1e-3, 1000.0, 0);
+        }
+        let grid = CellGrid::periodic([0.0; 3], l, 2e-3 + skin, [true, false, true]).expect("grid");
+        assert!(
+            grid.wrap[0].is_some(),
+            "x fastest and periodic: {:?}",
+            grid.axes
+        );
+        let mut list = NeighborList::default();
+        list.rebuild(&mut s, &grid, skin, &[], false, &Team::new(1));
+        let mut listed = Vec::new();
+        for i in 0..s.len() {
+            for k in list.start[i] as usize..list.start[i + 1] as usize {
+                let j = list.partner[k] as usize;
+                let d = sub(s.position[j], s.position[i]);
+                let o = list.offset[k];
+                let d2 = norm2([d[0] + o[0], d[1] + o[1], d[2] + o[2]]);
+                assert!(
+                    d2 < (2e-3 + skin) * (2e-3 + skin),
+                    "pair {i}-{j} out of reach"
+                );
+                listed.push((s.id[i].min(s.id[j]), s.id[i].max(s.id[j])));
+            }
+        }
+        listed.sort_unstable();
+        let mut brute = Vec::new();
+        for i in 0..s.len() {
+            for j in i + 1..s.len() {
+                let mut d = sub(s.position[j], s.position[i]);
+                for c in [0, 2] {
+                    d[c] -= l[c] * (d[c] / l[c]).round();
+                }
+                if norm2(d) < (2e-3 + skin) * (2e-3 + skin) {
+                    brute.push((s.id[i].min(s.id[j]), s.id[i].max(s.id[j])));
+                }
+            }
+        }
+        brute.sort_unstable();
+        assert!(brute.len() > 100, "{} pairs", brute.len());
+        assert_eq!(listed, brute);
+    }
+
     #[test]
     fn cells_are_numbered_with_the_longest_direction_slowest() {
         let along_x = CellGrid::new([0.0; 3], [1.0, 0.01, 0.01], 2e-3);
