@@ -201,3 +201,41 @@ fn settling_starts_the_clock_on_a_bed_at_rest() {
     };
     assert!(mean_z(&dem) < mean_z(&placed), "settling lowered the bed");
 }
+
+/// A box without gravity, 1.4 mm grains, Hooke e = 0.5: a free grain meets a frozen one
+/// head-on.
+#[test]
+fn a_frozen_grain_holds_still_and_returns_a_grain_as_an_infinite_mass() {
+    // The frozen grain never moves (bit for bit where it was, at rest); the free grain
+    // bounces back at e = 0.5 of its speed: against an infinite mass the damping ratio the
+    // law keeps gives the scene's restitution (2 %, the head-on tests' band), and m* is the
+    // free grain's mass, as LAMMPS's frozen partners take it.
+    let dir = folder("frozen");
+    std::fs::write(
+        dir.join("bed.csv"),
+        "x,y,z,radius,vx,vy,vz,frozen\n0,0,0,0.0007,0,0,0,1\n0.0016,0,0,0.0007,-0.1,0,0,0\n",
+    )
+    .unwrap();
+    let text = common::box_scene("[0, 0, 0]", common::HOOKE, "[initial]\nfile = \"bed.csv\"");
+    let mut dem = load(&dir, &text).unwrap();
+    let steps = (0.01 / dem.time_step()).round() as u64;
+    dem.advance(steps).unwrap();
+    let p = dem.particles();
+    let frozen = p.id.iter().position(|&i| i == 0).unwrap();
+    let free = 1 - frozen;
+    assert_eq!(p.position[frozen], [0.0; 3]);
+    assert_eq!(p.velocity[frozen], [0.0; 3]);
+    let e = p.velocity[free][0] / 0.1;
+    assert!(
+        (e - 0.5).abs() < 0.02 * 0.5,
+        "restitution off a frozen grain: {e}"
+    );
+    // A frozen column in the file must say 0 or 1.
+    std::fs::write(
+        dir.join("bed.csv"),
+        "x,y,z,radius,frozen\n0,0,0,0.0007,yes\n",
+    )
+    .unwrap();
+    let err = load(&dir, &text).err().unwrap();
+    assert!(err.contains("`yes` (frozen) is neither 0 nor 1"), "{err}");
+}

@@ -567,7 +567,7 @@ fn initial_config(
 }
 
 /// The grains of an `initial.file`: CSV, a header naming `x,y,z,radius` and optionally
-/// `vx,vy,vz` (SI), one grain per line. Each grain is checked: finite numbers, a radius
+/// `vx,vy,vz` (SI) and `frozen` (1: held in place, 0: free), one grain per line. Each grain is checked: finite numbers, a radius
 /// within the scene's `[particles]` range (1e-9 relative), inside the tube or box, and no
 /// overlap deeper than 5 % of the smaller radius with another (a bed settled by another
 /// code overlaps by a fraction of a percent; deeper, the first step would blow it apart).
@@ -612,6 +612,7 @@ fn read_grain_file(
             ))
         }
     };
+    let frozen_column = column("frozen");
     let mut grains = Vec::new();
     for (k, line) in lines {
         let at =
@@ -663,11 +664,19 @@ fn read_grain_file(
                 if tube.is_some() { "tube" } else { "box" }
             )));
         }
+        let frozen = match frozen_column.map(|c| cells[c]) {
+            None | Some("0") => false,
+            Some("1") => true,
+            Some(other) => {
+                return Err(at(format!("`{other}` (frozen) is neither 0 nor 1")));
+            }
+        };
         grains.push(GivenGrain {
             position: x,
             radius: r,
-            velocity: v,
+            velocity: if frozen { [0.0; 3] } else { v },
             line: k + 1,
+            frozen,
         });
     }
     if grains.is_empty() {

@@ -1,7 +1,7 @@
 //! Scene → LIGGGHTS input. Everything is checked here, before LIGGGHTS sees a line: a
 //! scene this mapping cannot express exactly is refused with the field and the reason.
 
-use plugflow_model::dem::config::{LawSet, RollingSet, TangentialSet};
+use plugflow_model::dem::config::{InitialConfig, LawSet, RollingSet, TangentialSet};
 use plugflow_model::dem::external::{
     beta_form_restitution, linear_pairs, single_grain_mass, LinearPair,
 };
@@ -82,9 +82,24 @@ fn refuse_slab(cfg: &DemConfig) -> Result<(), Refusal> {
     Ok(())
 }
 
+/// Frozen grains (`initial.file`'s `frozen` column) are the built-in engine's alone.
+fn refuse_frozen(cfg: &DemConfig) -> Result<(), Refusal> {
+    if let Some(InitialConfig::Given(grains)) = &cfg.initial {
+        if grains.iter().any(|g| g.frozen) {
+            return Err(refuse(
+                "initial.file",
+                "frozen grains are not mapped to LIGGGHTS yet (its `fix freeze` group is not \
+                 written); use dem.engine = \"native\"",
+            ));
+        }
+    }
+    Ok(())
+}
+
 /// Map a checked scene.
 pub fn map(scene: &Scene, cfg: &DemConfig) -> Result<Mapped, Refusal> {
     refuse_slab(cfg)?;
+    refuse_frozen(cfg)?;
     if cfg.inlet.is_some_and(|i| i.until.is_some()) {
         return Err(refuse(
             "inlet.until",
@@ -353,6 +368,7 @@ const REFUSED: [&str; 8] = [
 /// A user's own LIGGGHTS input (CFDEMcoupling style) with plugflow's coupling fixes.
 pub fn map_user(cfg: &DemConfig, path: &str) -> Result<Mapped, Refusal> {
     refuse_slab(cfg)?;
+    refuse_frozen(cfg)?;
     let field = "dem.liggghts_input";
     let text = std::fs::read_to_string(path)
         .map_err(|e| refuse(field, format!("cannot read `{path}`: {e}")))?;

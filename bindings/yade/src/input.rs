@@ -30,7 +30,7 @@
 //! together); YADE's Mindlin law integrates the shear force incrementally and damps shear
 //! with the normal coefficient.
 
-use plugflow_model::dem::config::{LawSet, RollingSet, TangentialSet};
+use plugflow_model::dem::config::{InitialConfig, LawSet, RollingSet, TangentialSet};
 use plugflow_model::dem::external::{
     beta_form_restitution, linear_cutoff_damping_ratio, linear_pairs, single_grain_mass, LinearPair,
 };
@@ -206,6 +206,15 @@ pub fn map(scene: &Scene, cfg: &DemConfig) -> Result<Setup, Refusal> {
             "dem.liggghts_input",
             "a LIGGGHTS input file is for the LIGGGHTS engine",
         ));
+    }
+    if let Some(InitialConfig::Given(grains)) = &cfg.initial {
+        if grains.iter().any(|g| g.frozen) {
+            return Err(refuse(
+                "initial.file",
+                "frozen grains are not mapped to YADE (not cross-checked); use dem.engine = \
+                 \"native\"",
+            ));
+        }
     }
     if cfg.periodic.iter().any(|&p| p) {
         let field = if cfg.tube.is_some() {

@@ -233,6 +233,9 @@ pub struct GivenGrain {
     pub velocity: Vec3,
     /// Its line in the file (for messages).
     pub line: usize,
+    /// Held in place for the whole run (a rough base: LAMMPS's `fix freeze`): it pushes
+    /// on the grains it touches as a partner of infinite mass, and never moves.
+    pub frozen: bool,
 }
 
 /// Time-step figures, reported with the run.

@@ -195,6 +195,12 @@ impl NativeDem {
                     dem.next_id += 1;
                     dem.state
                         .push(id, g.position, g.velocity, g.radius, dem.cfg.density, nw);
+                    if g.frozen {
+                        dem.state.freeze_last();
+                        // Pairs with a frozen grain take the other's mass as m*: constants
+                        // per pair from now on.
+                        dem.uniform = None;
+                    }
                 }
             }
             None => {}

@@ -4,6 +4,10 @@ use super::neighbor::MIN_ROWS_PER_MEMBER;
 use super::team::{share, Shared, Team};
 use crate::{Real, Vec3};
 
+/// How much heavier a frozen grain is made than its own mass (see
+/// [`ParticleState::freeze_last`]).
+pub const FROZEN_MASS_FACTOR: Real = 1e30;
+
 /// All per-grain arrays; index `i` is the same grain in every array. The order changes when
 /// the neighbour list re-sorts grains for locality; `id` is the stable name.
 #[derive(Debug, Clone, Default, serde::Serialize, serde::Deserialize)]
@@ -61,6 +65,21 @@ impl ParticleState {
         self.inv_inertia.push(1.0 / (0.4 * mass * radius * radius));
         self.wall_history
             .extend(std::iter::repeat_n([0.0; 3], walls));
+    }
+
+    /// Hold the last grain in place for good: no velocity, and no response to any force
+    /// (1/m = 1/I = 0, so the integrator leaves it where it is without a test per grain). Its
+    /// mass is made 1e30 times its own, so that a pair's m* = m_i m_j/(m_i + m_j) is the free
+    /// grain's mass to 1e-30 (a partner of infinite mass, as LAMMPS's `fix freeze` makes
+    /// its pair styles take it).
+    pub fn freeze_last(&mut self) {
+        let Some(k) = self.id.len().checked_sub(1) else {
+            return;
+        };
+        self.velocity[k] = [0.0; 3];
+        self.mass[k] *= FROZEN_MASS_FACTOR;
+        self.inv_mass[k] = 0.0;
+        self.inv_inertia[k] = 0.0;
     }
 
     /// Reorder every array so that new index `k` holds old grain `order[k]`.
