@@ -104,7 +104,9 @@ fn contact_laws(scene: &Scene, g: &Grains) -> LawSet {
     let mu_pw = c.wall_friction.map(|m| m.0).unwrap_or(mu_pp);
     // One arm per law name: the tangential law is chosen once, for whichever normal law.
     let tangential = match c.tangential {
-        TangentialLawName::History => TangentialChoice::History,
+        TangentialLawName::History => TangentialChoice::History {
+            gamma_t: c.tangential_damping.map(|g| g.si),
+        },
         TangentialLawName::CoulombViscous => TangentialChoice::CoulombViscous {
             gamma_t: c.tangential_damping.map(|g| g.si),
         },

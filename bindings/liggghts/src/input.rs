@@ -123,6 +123,13 @@ pub fn map(scene: &Scene, cfg: &DemConfig) -> Result<Mapped, Refusal> {
             let (pp, pw) = linear_pairs(cfg).expect("one grain size, Hooke");
             (pp, pw, cfg.laws.uses_history())
         }
+        LawSet::Hertz(TangentialSet::History(l)) if l.pp_tangential.gamma_t.is_some() => {
+            return Err(refuse(
+                "contact.tangential_damping",
+                "LIGGGHTS's `model hertz` damps the shear spring with its own γ_t; not mapped \
+                 with the scene's",
+            ))
+        }
         LawSet::Hertz(TangentialSet::History(l)) => {
             // LIGGGHTS's `model hertz` damps with γ = −2√(5/6) β √(S_n m*), S_n = 2Y*√(Rδ):
             // the built-in Tsuji form with the restitution of `beta_form_restitution`.

@@ -298,6 +298,13 @@ pub fn map(scene: &Scene, cfg: &DemConfig) -> Result<Setup, Refusal> {
             };
             ("viscel", grain, wall.clone(), wall, 0.0, 0.0)
         }
+        LawSet::Hertz(TangentialSet::History(l)) if l.pp_tangential.gamma_t.is_some() => {
+            return Err(refuse(
+                "contact.tangential_damping",
+                "YADE's Mindlin law damps the shear with its own β; not mapped with the \
+                 scene's γ_t",
+            ))
+        }
         LawSet::Hertz(TangentialSet::History(l)) => {
             let c = &scene.file.contact;
             let e = c.youngs_modulus.map(|q| q.si).unwrap_or(0.0);

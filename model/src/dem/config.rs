@@ -59,11 +59,11 @@ impl<N: NormalLaw> TangentialSet<N> {
             }
         }
         match tangential {
-            TangentialChoice::History => TangentialSet::History(laws(
+            TangentialChoice::History { gamma_t } => TangentialSet::History(laws(
                 pp_normal,
                 pw_normal,
-                History { mu: mu_pp },
-                History { mu: mu_pw },
+                History { mu: mu_pp, gamma_t },
+                History { mu: mu_pw, gamma_t },
             )),
             TangentialChoice::CoulombViscous { gamma_t } => TangentialSet::CoulombViscous(laws(
                 pp_normal,
@@ -100,8 +100,9 @@ impl<N: NormalLaw> TangentialSet<N> {
 /// The tangential law a scene asks for, with the settings only it takes.
 #[derive(Debug, Clone, Copy)]
 pub enum TangentialChoice {
-    /// Shear spring with history, capped by Coulomb friction.
-    History,
+    /// Shear spring with history, capped by Coulomb friction; `gamma_t` its dashpot (None:
+    /// the normal law's damping ratio on the shear spring).
+    History { gamma_t: Option<Real> },
     /// Viscous shear capped by Coulomb friction; `gamma_t` the damping (None: the normal's).
     CoulombViscous { gamma_t: Option<Real> },
 }

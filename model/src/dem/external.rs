@@ -46,8 +46,12 @@ pub fn linear_pairs(cfg: &DemConfig) -> Option<(LinearPair, LinearPair)> {
     // The shear damping: the history law's dashpot on k_t, or the Coulomb law's γ_t.
     let (gt_pp, gt_pw, mu_pp, mu_pw) = match t {
         TangentialSet::History(l) => (
-            damping(pp.zeta, pp.kt, m_pp),
-            damping(pw.zeta, pw.kt, m_pw),
+            l.pp_tangential
+                .gamma_t
+                .unwrap_or_else(|| damping(pp.zeta, pp.kt, m_pp)),
+            l.pw_tangential
+                .gamma_t
+                .unwrap_or_else(|| damping(pw.zeta, pw.kt, m_pw)),
             l.pp_tangential.mu,
             l.pw_tangential.mu,
         ),

@@ -788,9 +788,15 @@ mod tests {
         let hertz = Hertz::new(5e6, 0.45, 0.5);
         let mut laws = Laws {
             pp_normal: hertz.clone(),
-            pp_tangential: History { mu: 0.5 },
+            pp_tangential: History {
+                mu: 0.5,
+                gamma_t: None,
+            },
             pw_normal: hertz,
-            pw_tangential: History { mu: 0.3 },
+            pw_tangential: History {
+                mu: 0.3,
+                gamma_t: None,
+            },
             wall_tangential: vec![],
         };
         laws.attach_walls(&walls);

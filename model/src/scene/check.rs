@@ -216,12 +216,6 @@ fn check_contact(f: &SceneFile) -> Result<(), SceneError> {
         }
     }
     if let Some(g) = c.tangential_damping {
-        if c.tangential != TangentialLawName::CoulombViscous {
-            return Err(field_err(
-                "contact.tangential_damping",
-                "only the coulomb_viscous law takes it",
-            ));
-        }
         if g.si < 0.0 {
             return Err(field_err("contact.tangential_damping", "must be ≥ 0"));
         }

@@ -321,8 +321,9 @@ pub struct ContactSpec {
     pub youngs_modulus: Option<Q<Pressure>>,
     /// Hertz: Poisson ratio ν in [0, 0.5).
     pub poisson_ratio: Option<Finite>,
-    /// `coulomb_viscous`: tangential viscous coefficient γ_t, kg/s. Default: the pair's
-    /// normal damping coefficient (η_t = η_n as in seed 004).
+    /// Tangential viscous coefficient γ_t, kg/s. `coulomb_viscous`: default the pair's
+    /// normal damping coefficient (η_t = η_n as in seed 004); `history`: the shear spring's
+    /// dashpot, default the normal law's damping ratio on k_t (0: none, LAMMPS's dampflag 0).
     pub tangential_damping: Option<Q<Damping>>,
     /// Grain–wall friction. Default: `friction`.
     pub wall_friction: Option<Finite>,
