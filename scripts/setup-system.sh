@@ -11,7 +11,8 @@
 #           test), and for Debian's own /usr/bin/python3 h5py (reads run.h5 back), and
 #           ParaView's Python (under pvbatch, VTK's XML readers read the ParaView files back
 #           and its XDMF reader opens run.xdmf; ParaView itself comes with liggghts, its
-#           Python adds ~8 s; it conflicts with python3-vtk9, which it replaces). Debian's
+#           Python adds ~8 s; it conflicts with python3-vtk9, which it replaces), and
+#           LAMMPS (`lmp`, 2022, GRANULAR: `cargo bench --bench chute_bench`). Debian's
 #           packages, not pip: a plain
 #           Debian 12 refuses pip into the system Python (PEP 668).
 set -euo pipefail
@@ -20,7 +21,7 @@ need_rust=$(sed -n 's/^rust-version = "\(.*\)"/\1/p' "$(dirname "$0")/../Cargo.t
 pkgs=(build-essential libhdf5-dev pkg-config)
 if [ "${1:-}" != "--base" ]; then
   pkgs+=(liggghts libliggghts-dev libopenmpi-dev yade python3-yade libpython3.11-dev procps
-    python3-h5py python3-paraview)
+    python3-h5py python3-paraview lammps)
 fi
 missing=()
 for p in "${pkgs[@]}"; do
