@@ -248,27 +248,27 @@ impl TubeGrid {
     /// [`TubeGrid::stencil`] of a point given in tube-frame coordinates (s, u, w).
     #[inline]
     pub fn stencil_local(&self, (s, u, w): (Real, Real, Real)) -> Stencil {
-        let axis_weights = |coord: Real, lo: Real, h: Real, n: usize| -> ([usize; 2], [Real; 2]) {
-            if n == 1 {
-                return ([0, 0], [1.0, 0.0]);
-            }
-            let f = ((coord - lo) / h - 0.5).clamp(0.0, (n - 1) as Real);
-            let k0 = (f.floor() as usize).min(n - 2);
-            let t = f - k0 as Real;
-            ([k0, k0 + 1], [1.0 - t, t])
-        };
-        let (kz, wz) = if self.periodic && self.nz > 1 {
-            // Around the seam: the slice below the first is the last.
-            let n = self.nz as Real;
-            let f = (s / self.dz - 0.5).rem_euclid(n);
-            let k0 = (f.floor() as usize).min(self.nz - 1);
-            let t = f - k0 as Real;
-            ([k0, (k0 + 1) % self.nz], [1.0 - t, t])
-        } else {
-            axis_weights(s, 0.0, self.dz, self.nz)
-        };
-        let (kx, wx) = axis_weights(u, -self.radius, self.dx, self.nx);
-        let (ky, wy) = axis_weights(w, -self.radius, self.dy, self.ny);
+        // The two nodes either side of a coordinate and their tent weights; a direction that
+        // wraps (a periodic section's axis) takes the last node as the first's neighbour
+        // below, one that does not clamps onto its end nodes.
+        let axis_weights =
+            |coord: Real, lo: Real, h: Real, n: usize, wraps: bool| -> ([usize; 2], [Real; 2]) {
+                if n == 1 {
+                    return ([0, 0], [1.0, 0.0]);
+                }
+                let f = (coord - lo) / h - 0.5;
+                let (f, top) = if wraps {
+                    (f.rem_euclid(n as Real), n - 1)
+                } else {
+                    (f.clamp(0.0, (n - 1) as Real), n - 2)
+                };
+                let k0 = (f.floor() as usize).min(top);
+                let t = f - k0 as Real;
+                ([k0, (k0 + 1) % n], [1.0 - t, t])
+            };
+        let (kz, wz) = axis_weights(s, 0.0, self.dz, self.nz, self.periodic);
+        let (kx, wx) = axis_weights(u, -self.radius, self.dx, self.nx, false);
+        let (ky, wy) = axis_weights(w, -self.radius, self.dy, self.ny, false);
         let mut st = Stencil::default();
         let mut dropped = false;
         for a in 0..2 {

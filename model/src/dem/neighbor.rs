@@ -15,7 +15,7 @@
 
 use super::state::ParticleState;
 use super::team::{share, Shared, Team};
-use super::vec3::{norm2, sub};
+use super::vec3::{add, norm2, sub};
 use super::walls::Wall;
 use crate::{Real, Vec3};
 
@@ -38,6 +38,41 @@ struct RowScratch {
 }
 
 impl RowScratch {
+    /// List grains `js` (all after i) within r_i + r_j + `skin` of grain i as its partners,
+    /// their images at `shift` (a periodic box's: recorded per pair; without periodic
+    /// directions nothing is added or recorded, the loop compiled without it). Returns how
+    /// many of them touch i.
+    #[inline(always)]
+    fn scan<const PERIODIC: bool>(
+        &mut self,
+        x: &[Vec3],
+        r: &[Real],
+        i: usize,
+        js: std::ops::Range<usize>,
+        skin: Real,
+        shift: Vec3,
+    ) -> u64 {
+        let (xi, ri) = (x[i], r[i]);
+        let mut contacts = 0;
+        for j in js {
+            let touch = ri + r[j];
+            let reach = touch + skin;
+            let mut d = sub(x[j], xi);
+            if PERIODIC {
+                d = add(d, shift);
+            }
+            let d2 = norm2(d);
+            if d2 < reach * reach {
+                self.partner.push(j as u32);
+                if PERIODIC {
+                    self.offset.push(shift);
+                }
+                contacts += u64::from(d2 < touch * touch);
+            }
+        }
+        contacts
+    }
+
     /// Pairs of rows [lo, hi), their work, and the rows' grains near each wall.
     ///
     /// The work of a grain's share of a step, in units of one pair test: its pair tests, its
@@ -69,7 +104,7 @@ impl RowScratch {
         let periodic = grid.is_periodic();
         let (x, r) = (&s.position[..], &s.radius[..]);
         for i in lo..hi {
-            let (xi, ri) = (x[i], r[i]);
+            let xi = x[i];
             let c = grid.coord(xi);
             let before = self.partner.len();
             let mut contacts = 0u64;
@@ -102,31 +137,14 @@ impl RowScratch {
                             cell_start[row + x0] as usize,
                             cell_start[row + x1 + 1] as usize,
                         );
-                        if !periodic {
-                            for j in a.max(i + 1)..b {
-                                let touch = ri + r[j];
-                                let reach = touch + skin;
-                                let d2 = norm2(sub(x[j], xi));
-                                if d2 < reach * reach {
-                                    self.partner.push(j as u32);
-                                    contacts += u64::from(d2 < touch * touch);
-                                }
-                            }
-                            continue;
-                        }
-                        let shift: Vec3 =
-                            std::array::from_fn(|k| shift_x[k] + shift_y[k] + shift_z[k]);
-                        for j in a.max(i + 1)..b {
-                            let touch = ri + r[j];
-                            let reach = touch + skin;
-                            let d = sub(x[j], xi);
-                            let d2 = norm2([d[0] + shift[0], d[1] + shift[1], d[2] + shift[2]]);
-                            if d2 < reach * reach {
-                                self.partner.push(j as u32);
-                                self.offset.push(shift);
-                                contacts += u64::from(d2 < touch * touch);
-                            }
-                        }
+                        let js = a.max(i + 1)..b;
+                        contacts += if periodic {
+                            let shift =
+                                std::array::from_fn(|k| shift_x[k] + shift_y[k] + shift_z[k]);
+                            self.scan::<true>(x, r, i, js, skin, shift)
+                        } else {
+                            self.scan::<false>(x, r, i, js, skin, [0.0; 3])
+                        };
                     }
                 }
             }

@@ -647,13 +647,13 @@ fn check_initial(f: &SceneFile, ini: &InitialSpec) -> Result<(), SceneError> {
             ));
         };
         // "Up" is against gravity across the tube: gravity must have a part across it.
-        let a = normalize3(t.axis.map(|c| c.0));
+        let a = crate::dem::vec3::normalized(t.axis.map(|c| c.0));
         let g = f.gravity.map(|q| q.si);
         let along = g[0] * a[0] + g[1] * a[1] + g[2] * a[2];
         let across = (g[0] * g[0] + g[1] * g[1] + g[2] * g[2] - along * along)
             .max(0.0)
             .sqrt();
-        if across <= 1e-9 * (g[0].abs() + g[1].abs() + g[2].abs()) || across == 0.0 {
+        if across <= 1e-9 * (g[0].abs() + g[1].abs() + g[2].abs()) {
             return Err(field_err(
                 name,
                 "measures height against gravity across the tube; here gravity has no part \
@@ -670,16 +670,6 @@ fn check_initial(f: &SceneFile, ini: &InitialSpec) -> Result<(), SceneError> {
         }
     }
     Ok(())
-}
-
-/// `v` scaled to unit length (zero stays zero).
-fn normalize3(v: [Real; 3]) -> [Real; 3] {
-    let n = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
-    if n > 0.0 {
-        [v[0] / n, v[1] / n, v[2] / n]
-    } else {
-        v
-    }
 }
 
 /// `[output]`.
