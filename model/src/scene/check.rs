@@ -307,11 +307,11 @@ fn check_periodic(f: &SceneFile) -> Result<(), SceneError> {
         ));
     }
     if let Some(g) = &f.gas {
-        if g.model != "darcy" {
+        if g.equation_of_state.as_deref() == Some("ideal_gas") {
             return Err(field_err(
-                "gas.model",
-                "a periodic section runs with the `darcy` gas (the periodic `simple` gas is \
-                 not built yet)",
+                "gas.equation_of_state",
+                "a periodic section has no outlet to fix the absolute pressure an ideal gas's \
+                 density follows: use `constant` (the section's gas is incompressible)",
             ));
         }
         if g.solver == GasSolverPath::Splitting {

@@ -40,6 +40,10 @@ pub struct Geometry {
     /// gradient at the wall is the slope of the parabola through the wall, the cell and its
     /// partner at their mean distances from the wall. (Deferred: lagged one iteration.)
     pub wall_partner: Vec<Option<(usize, Real, Real)>>,
+    /// Periodic along the flow (direction 0): the last cell's downstream face is the first
+    /// cell's upstream face. The faces at x₀ = n₀ carry the seam's velocity; those at
+    /// x₀ = 0 are copies ([`Geometry::axial_face`] maps every reference to the former).
+    pub periodic: bool,
 }
 
 pub(super) fn plus(x: [usize; 3], d: usize) -> [usize; 3] {
@@ -107,6 +111,7 @@ impl Geometry {
             wall,
             flow_area: width[0] * width[1],
             wall_partner: Vec::new(),
+            periodic: false,
         }
     }
 
@@ -193,6 +198,7 @@ impl Geometry {
             wall,
             flow_area: std::f64::consts::PI * r * r,
             wall_partner,
+            periodic: grid.periodic,
         }
     }
 
@@ -217,6 +223,52 @@ impl Geometry {
     pub(super) fn face(&self, d: usize, x: [usize; 3]) -> usize {
         let m = self.face_counts(d);
         x[0] + m[0] * (x[1] + m[1] * x[2])
+    }
+
+    /// The face normal to d at x as the momentum equations see it: on a periodic grid the
+    /// axial faces at x₀ = 0 are the seam's faces at x₀ = n₀.
+    #[inline]
+    pub(super) fn axial_face(&self, d: usize, x: [usize; 3]) -> usize {
+        if self.periodic && d == 0 && x[0] == 0 {
+            self.face(0, [self.n[0], x[1], x[2]])
+        } else {
+            self.face(d, x)
+        }
+    }
+
+    /// The cell one step downstream of x along d (periodic grids wrap along 0); None past
+    /// the grid's end.
+    #[inline]
+    pub(super) fn cell_after(&self, x: [usize; 3], d: usize) -> Option<[usize; 3]> {
+        if x[d] + 1 < self.n[d] {
+            Some(plus(x, d))
+        } else if self.periodic && d == 0 {
+            Some([0, x[1], x[2]])
+        } else {
+            None
+        }
+    }
+
+    /// The cell one step upstream of x along d (periodic grids wrap along 0).
+    #[inline]
+    pub(super) fn cell_before(&self, x: [usize; 3], d: usize) -> Option<[usize; 3]> {
+        if x[d] > 0 {
+            Some(minus(x, d))
+        } else if self.periodic && d == 0 {
+            Some([self.n[0] - 1, x[1], x[2]])
+        } else {
+            None
+        }
+    }
+
+    /// Copy the seam's axial velocities (x₀ = n₀) onto their duplicates at x₀ = 0.
+    pub(super) fn sync_seam(&self, axial: &mut [Real]) {
+        if !self.periodic {
+            return;
+        }
+        for x in Self::each([1, self.n[1], self.n[2]]) {
+            axial[self.face(0, x)] = axial[self.face(0, [self.n[0], x[1], x[2]])];
+        }
     }
 
     /// Faces normal to d.
@@ -300,6 +352,15 @@ impl Geometry {
         Self::each(self.face_counts(d))
             .map(|x| {
                 let open = |c: usize| if self.volume[c] > 0.0 { c } else { NONE };
+                if self.periodic && d == 0 {
+                    // The seam's faces join the last cell to the first; their duplicates at
+                    // x₀ = 0 belong to no cell (counted once).
+                    if x[0] == 0 {
+                        return (NONE, NONE);
+                    }
+                    let hi = self.cell_after(minus(x, 0), 0).expect("periodic");
+                    return (open(self.cell(minus(x, 0))), open(self.cell(hi)));
+                }
                 let lo = if x[d] > 0 {
                     open(self.cell(minus(x, d)))
                 } else {
@@ -331,7 +392,7 @@ impl Geometry {
                 continue;
             }
             let lo = minus(x, d);
-            let hi = (x[d] < n[d]).then_some(x);
+            let hi = self.cell_after(lo, d);
             let cells = [Some(lo), hi];
             let present = cells.iter().flatten().count();
             let vol = cells
@@ -358,14 +419,20 @@ impl Geometry {
                         neighbour: NONE,
                     };
                     for (k, &q) in cells.iter().flatten().enumerate() {
-                        let sf = self.face(t, if up { plus(q, t) } else { q });
+                        let sf = self.axial_face(t, if up { plus(q, t) } else { q });
                         side.faces[k] = sf;
                         side.area += 0.5 * self.area[t][sf];
                         side.gap += self.spacing[t][sf] / present as Real;
                     }
-                    let exists = if up { x[t] + 1 < n[t] } else { x[t] > 0 };
-                    if exists {
-                        side.neighbour = self.face(d, if up { plus(x, t) } else { minus(x, t) });
+                    // (Across the periodic seam too: the neighbouring face of the same
+                    // component is the wrapped one; d ≠ 0 there, so no axial duplicate.)
+                    let beside = if up {
+                        self.cell_after(x, t)
+                    } else {
+                        self.cell_before(x, t)
+                    };
+                    if let Some(y) = beside {
+                        side.neighbour = self.face(d, y);
                         side.count = present as u8;
                     } else if t == 0 && !up {
                         side.count = present as u8;
@@ -395,8 +462,8 @@ impl Geometry {
                 area: self.area[d][f],
                 wall,
                 next: [
-                    hi.map_or(NONE, |_| self.face(d, plus(x, d))),
-                    self.face(d, lo),
+                    hi.map_or(NONE, |q| self.axial_face(d, plus(q, d))),
+                    self.axial_face(d, lo),
                 ],
                 section: [
                     hi.map_or(0.0, |q| self.volume[self.cell(q)] / self.h[d]),

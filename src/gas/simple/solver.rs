@@ -34,6 +34,14 @@ pub struct SimpleGas {
     /// The pressure-correction matrix's pattern and the order its values are pushed in
     /// (the same every iteration: built once).
     pub(super) pattern: Option<(SymbolicSparseColMat<usize>, Argsort<usize>)>,
+    /// A periodic grid's driving gradient G, Pa/m: the pressure is p̃ − G s with p̃ periodic
+    /// (`p` holds p̃), so G pushes every axial face's gas as ε G per volume. The flow
+    /// controller sets it within each step to hold the mean superficial velocity
+    /// `params.inlet_velocity` (Lethe's flow control, taken to convergence).
+    pub drive_gradient: Real,
+    /// A periodic grid's mean superficial velocity along the flow at the end of the last
+    /// solve, m/s: (1/V) ∫ ε u dV (the quantity the controller holds).
+    pub mean_superficial_velocity: Real,
 }
 
 impl SimpleGas {
@@ -68,6 +76,8 @@ impl SimpleGas {
             face_cells,
             symbolic: None,
             pattern: None,
+            drive_gradient: 0.0,
+            mean_superficial_velocity: params.inlet_velocity,
             params,
             geometry,
         }
@@ -188,6 +198,9 @@ impl SimpleGas {
     /// The inlet's mass flux ρ0 U as interstitial u on the inlet's open faces.
     pub(super) fn apply_inlet(&mut self, faces: &FaceFields) {
         let g = &self.geometry;
+        if g.periodic {
+            return;
+        }
         let flux = self.params.density * self.params.inlet_velocity * g.flow_area / g.inlet_area();
         for x in Geometry::each([1, g.n[1], g.n[2]]) {
             let f = g.face(0, x);
@@ -326,6 +339,10 @@ impl SimpleGas {
                 + beta_f * st.vol;
             let p_hi = if st.hi != NONE { self.p[st.hi] } else { 0.0 };
             let mut src = eps_f * (self.p[cl] - p_hi) * st.area + beta_f * st.vol * grain;
+            if g.periodic && d == 0 {
+                // The driving part of the pressure, −∂(−G s)/∂s = G, on the control volume.
+                src += eps_f * self.drive_gradient * st.vol;
+            }
             if let Some((partner, k_self, k_partner)) = st.partner {
                 src -= mu * eps_f * (k_self * vel[d][f] + k_partner * vel[d][partner]);
             }
@@ -380,9 +397,12 @@ impl SimpleGas {
                 }
             }
             self.vel = star;
+            // A periodic grid's controller: the flow's miss of its target counts as a mass
+            // imbalance (of the whole section), so the iteration ends only with G converged.
+            let missed = self.control_flow(&faces, &du);
             report = SimpleReport {
                 iterations: it + 1,
-                mass_residual: worst / inflow.abs().max(1e-300),
+                mass_residual: (worst / inflow.abs().max(1e-300)).max(missed),
             };
             if !self
                 .vel
@@ -467,6 +487,7 @@ impl SimpleGas {
             }
         }
         let mut worst: Real = 0.0;
+        let mut pin = None;
         for c in 0..cells {
             if g.volume[c] == 0.0 {
                 // Outside the flow: p' = 0, decoupled.
@@ -483,6 +504,23 @@ impl SimpleGas {
             }
             worst = worst.max(rhs[c].abs());
         }
+        if g.periodic && drho_dp == 0.0 {
+            // No boundary fixes the level of p': the system is singular, compatible when the
+            // cells' imbalances sum to zero. They do up to the grains' volume the porosity's
+            // clamp adds or removes: that part is spread over the cells by volume (a uniform
+            // compression of the incompressible gas, below the tolerance), and the first open
+            // cell's p' is pinned (any δ > 0 on one diagonal entry of a compatible system
+            // gives exactly the solution with p' = 0 there).
+            let open: Real = g.volume.iter().sum();
+            let excess: Real = rhs.iter().sum::<Real>() / open;
+            for (r, v) in rhs.iter_mut().zip(&g.volume) {
+                *r -= excess * v;
+            }
+            worst = rhs.iter().fold(0.0, |m: Real, r| m.max(r.abs()));
+            if let Some(first) = g.volume.iter().position(|&v| v > 0.0) {
+                pin = Some(first);
+            }
+        }
         // Entries (row, column) of the lower triangle, pushed in a fixed order.
         let mut idx: Vec<(usize, usize)> = Vec::with_capacity(4 * cells);
         let mut val: Vec<Real> = Vec::with_capacity(4 * cells);
@@ -495,10 +533,14 @@ impl SimpleGas {
                 diag[st.lo] += a;
                 if st.hi != NONE {
                     diag[st.hi] += a;
-                    idx.push((st.hi, st.lo));
+                    // (Lower triangle: the seam's faces join the last cell to the first.)
+                    idx.push((st.hi.max(st.lo), st.hi.min(st.lo)));
                     val.push(-a);
                 }
             }
+        }
+        if let Some(c) = pin {
+            diag[c] *= 2.0;
         }
         for (k, d) in diag.iter().enumerate() {
             idx.push((k, k));
@@ -531,6 +573,43 @@ impl SimpleGas {
         llt.solve_in_place(sol.as_mut());
         let pc: Vec<Real> = (0..cells).map(|k| sol[(k, 0)]).collect();
         Ok((pc, worst))
+    }
+
+    /// A periodic grid's flow controller, after each SIMPLE iteration: the mean superficial
+    /// velocity U = Σ ε u A / (n₀ A_flow) over the axial faces (each plane once), and the
+    /// change of G that brings it to the target with every face answering as its momentum
+    /// equation does, Δu = ε V ΔG / a_P (a Newton step: U is linear in G at fixed p̃);
+    /// the faces take their share at once, continuity corrects the rest next iteration.
+    /// Returns the measured flow's miss of the target, relative (0 on open grids).
+    fn control_flow(&mut self, faces: &FaceFields, du: &[Vec<Real>; 3]) -> Real {
+        let g = &self.geometry;
+        if !g.periodic {
+            return 0.0;
+        }
+        let scale = 1.0 / (g.n[0] as Real * g.flow_area);
+        let alpha = self.params.relax_velocity;
+        let (mut flow, mut slope) = (0.0, 0.0);
+        for st in &self.stencils[0] {
+            let (f, eps) = (st.face, faces.porosity[0][st.face]);
+            flow += eps * self.vel[0][f] * st.area * scale;
+            // 1/a_P unrelaxed (du holds α/a_P).
+            slope += eps * eps * st.vol * du[0][f] / alpha * st.area * scale;
+        }
+        self.mean_superficial_velocity = flow;
+        let target = self.params.inlet_velocity;
+        let missed = (flow - target).abs() / target.abs().max(1e-300);
+        if slope <= 0.0 {
+            g.sync_seam(&mut self.vel[0]);
+            return missed;
+        }
+        let change = (target - flow) / slope;
+        self.drive_gradient += change;
+        for st in &self.stencils[0] {
+            let f = st.face;
+            self.vel[0][f] += faces.porosity[0][f] * st.vol * du[0][f] / alpha * change;
+        }
+        g.sync_seam(&mut self.vel[0]);
+        missed
     }
 
     /// Mean pressure over the open cells of slice i along the flow (volume-weighted), Pa.

@@ -25,6 +25,11 @@ struct SimpleState {
     node_p: Vec<Real>,
     steps: u64,
     last_iterations: usize,
+    /// A periodic grid's driving gradient and measured mean superficial velocity.
+    #[serde(default)]
+    drive_gradient: Real,
+    #[serde(default)]
+    mean_superficial_velocity: Real,
 }
 
 /// The SIMPLE gas behind the `GasSolver` trait on a tube grid: the 2D channel of seed 004
@@ -62,7 +67,7 @@ impl SimpleTubeGas {
         porosity_min: Real,
         ideal_gas_pressure: Option<Real>,
     ) -> Self {
-        let geometry = if grid.nx == 1 {
+        let mut geometry = if grid.nx == 1 {
             Geometry::channel(
                 grid.length,
                 [1.0, 2.0 * grid.radius],
@@ -72,6 +77,7 @@ impl SimpleTubeGas {
         } else {
             Geometry::tube(&grid)
         };
+        geometry.periodic = grid.periodic;
         let gas = SimpleGas::new(
             SimpleParams {
                 density,
@@ -239,6 +245,14 @@ impl GasSolver for SimpleTubeGas {
                 }
                 let grad: [Real; 3] = std::array::from_fn(|d| {
                     let h = g.h[d];
+                    if d == 0 && g.periodic {
+                        // p = p̃ − G s: p̃'s central difference around the seam, less G
+                        // (closed neighbours along the axis do not occur: columns are
+                        // open or closed along the whole section).
+                        let up = g.cell_after(x, 0).expect("periodic");
+                        let down = g.cell_before(x, 0).expect("periodic");
+                        return (p(up) - p(down)) / (2.0 * h) - self.gas.drive_gradient;
+                    }
                     if d == 0 && x[0] + 1 == g.n[0] {
                         // To the outlet's p = 0 half a cell downstream.
                         return if x[0] > 0 {
@@ -262,6 +276,10 @@ impl GasSolver for SimpleTubeGas {
     }
 
     fn pressure_drop_per_length(&self) -> Real {
+        if self.gas.geometry.periodic {
+            // The mean of −∂p/∂s over a period: G (p̃ is periodic).
+            return self.gas.drive_gradient;
+        }
         // First slice's mean pressure over its distance to the outlet (p = 0).
         let first = self.gas.column_pressure(0);
         first / (self.grid.length - 0.5 * self.gas.geometry.h[0])
@@ -301,6 +319,8 @@ impl GasSolver for SimpleTubeGas {
             node_p: self.p.clone(),
             steps: self.steps,
             last_iterations: self.last_iterations,
+            drive_gradient: g.drive_gradient,
+            mean_superficial_velocity: g.mean_superficial_velocity,
         };
         crate::gas::encode_state(&state, "SIMPLE")
     }
@@ -338,6 +358,10 @@ impl GasSolver for SimpleTubeGas {
         g.fed_solid = s.fed_solid;
         g.grain_velocity = s.grain_velocity;
         g.params.inlet_velocity = s.inlet_velocity;
+        if g.geometry.periodic {
+            g.drive_gradient = s.drive_gradient;
+            g.mean_superficial_velocity = s.mean_superficial_velocity;
+        }
         self.phi = s.phi;
         self.p = s.node_p;
         self.steps = s.steps;
