@@ -56,6 +56,11 @@ pub trait GasSolver {
     /// P'(z₁)/(L − z₁). Measured where the solver has a value, not extrapolated to z = 0;
     /// every solver reports this one definition (summary, `run.h5`, targets).
     fn pressure_drop_per_length(&self) -> Real;
+    /// A periodic section's mean superficial gas velocity along the axis after the last
+    /// step, (1/V) ∫ ε u dV, m/s (what its flow controller holds); None for open tubes.
+    fn mean_superficial_velocity(&self) -> Option<Real> {
+        None
+    }
     /// Interstitial gas velocity on the nodes, m/s; None for solvers without one (d'Arcy).
     fn gas_velocity(&self) -> Option<Vec<Vec3>> {
         None

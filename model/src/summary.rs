@@ -82,6 +82,9 @@ pub struct Summary {
     /// The gas (scenes with `[gas]`).
     #[serde(flatten, skip_serializing_if = "Option::is_none")]
     pub gas: Option<GasSummary>,
+    /// A periodic section's slug, measured as Lethe measures it (`analysis/slug.rs`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub slug: Option<SlugSummary>,
     /// Profiles averaged over the selected plugs (scenes with a tube).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub profiles: Option<Value>,
@@ -362,6 +365,7 @@ pub fn test_summary(status: &str, wall_time_s: Real, pressure_drop: Option<Real>
             gas: None,
         },
         plugs: None,
+        slug: None,
         gas: pressure_drop.map(|dp| GasSummary {
             pressure_drop_hpa_per_m: dp,
             gas_mass_error_rel: 0.0,
@@ -463,4 +467,43 @@ mod tests {
         }
         assert!(Number::from_key("pressure_drop").is_err());
     }
+}
+
+/// Mean and standard deviation of a quantity over the samples that have it.
+#[derive(Debug, Clone, Copy, Serialize, Deserialize, PartialEq)]
+pub struct MeanStd {
+    pub mean: Real,
+    pub std: Real,
+    pub samples: usize,
+}
+
+impl MeanStd {
+    /// None for no values.
+    pub fn of(values: &[Real]) -> Option<Self> {
+        if values.is_empty() {
+            return None;
+        }
+        let n = values.len() as Real;
+        let mean = values.iter().sum::<Real>() / n;
+        let var = values.iter().map(|v| (v - mean).powi(2)).sum::<Real>() / n;
+        Some(Self {
+            mean,
+            std: var.sqrt(),
+            samples: values.len(),
+        })
+    }
+}
+
+/// The summary's slug numbers (Lethe's five quantities and Lavrinec's correlation).
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct SlugSummary {
+    pub samples: usize,
+    /// Share of the samples that saw a slug.
+    pub slug_seen_fraction: Real,
+    pub slug_velocity_m_s: Option<MeanStd>,
+    pub slug_grain_velocity_m_s: Option<MeanStd>,
+    pub slug_length_m: Option<MeanStd>,
+    pub gas_mean_superficial_velocity_m_s: Option<MeanStd>,
+    /// Lavrinec et al. (2020): 0.967 ū_p + 0.5 √(g D), from the grains' mean speed, m/s.
+    pub lavrinec_slug_velocity_m_s: Option<Real>,
 }

@@ -3,5 +3,6 @@
 
 pub mod plugs;
 pub mod profiles;
+pub mod slug;
 pub mod taps;
 pub use plugflow_model::targets;

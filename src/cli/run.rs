@@ -120,6 +120,27 @@ fn print_outcome(sm: &Summary, out_dir: &std::path::Path) {
             );
         }
     }
+    if let Some(sl) = &sm.slug {
+        let f = |m: &Option<plugflow_model::summary::MeanStd>| {
+            m.map_or_else(
+                || "—".to_string(),
+                |m| format!("{:.3} ± {:.3}", m.mean, m.std),
+            )
+        };
+        say!(
+            "slug (after the settling time, {} samples, seen in {:.0} %): velocity {} m/s, \
+             its grains {} m/s, length {} m; gas mean superficial velocity {} m/s; \
+             Lavrinec's 0.967 ū_p + 0.5 √(gD) = {} m/s",
+            sl.samples,
+            100.0 * sl.slug_seen_fraction,
+            f(&sl.slug_velocity_m_s),
+            f(&sl.slug_grain_velocity_m_s),
+            f(&sl.slug_length_m),
+            f(&sl.gas_mean_superficial_velocity_m_s),
+            sl.lavrinec_slug_velocity_m_s
+                .map_or_else(|| "—".to_string(), |v| format!("{v:.3}"))
+        );
+    }
     let taps = sm.gas.as_ref().and_then(|g| g.pressure_taps.as_ref());
     for tap in taps.and_then(|t| t.as_array()).into_iter().flatten() {
         let mbar = |k: &str| {

@@ -822,6 +822,10 @@ impl GasSolver for DarcyGas {
         grad
     }
 
+    fn mean_superficial_velocity(&self) -> Option<Real> {
+        self.grid.periodic.then_some(self.mean_superficial_velocity)
+    }
+
     fn pressure_drop_per_length(&self) -> Real {
         if self.grid.periodic {
             // The mean of −∂P'/∂s over a period: G (P̃ is periodic).

@@ -176,6 +176,13 @@ pub fn summarize(e: &Ending) -> Summary {
         accuracy,
         plugs,
         gas,
+        slug: s.slug.as_ref().and_then(|sl| {
+            let g = (0..3)
+                .map(|k| cfg.gravity[k] * cfg.gravity[k])
+                .sum::<Real>()
+                .sqrt();
+            sl.summary(s.settle, g, 2.0 * cfg.tube.map_or(0.0, |t| t.radius))
+        }),
         profiles: s
             .profiles
             .as_ref()
@@ -358,6 +365,13 @@ pub fn write_figures(
                 0.025,
             )?;
         }
+    }
+    if let Some(sl) = &s.slug {
+        let csv_path = out_dir.join("slug.csv");
+        std::fs::write(&csv_path, sl.csv()).map_err(|source| RunError::Io {
+            path: csv_path.display().to_string(),
+            source,
+        })?;
     }
     if let Some(res) = profiles.filter(|r| r.plugs_used > 0) {
         figures::profiles(&out_dir.join("profiles.png"), res)?;

@@ -6,6 +6,7 @@ use plugflow_coupling::{Coupler, DemBackend, ParticleView};
 
 use crate::analysis::plugs::{PlugTracker, Slicer};
 use crate::analysis::profiles::{PlugWindow, Profiles, TubeFrame, WallSpring};
+use crate::analysis::slug::SlugTrace;
 use crate::analysis::taps::{PressureTap, TapTrace};
 use crate::dem::{DemConfig, LawSet};
 use crate::output::{GasSnapshot, OutputError, RunOutput, Sample};
@@ -38,6 +39,9 @@ pub struct Sampling {
     /// sample) and the sums of their forces after the settling time, N.
     pub walls: Vec<String>,
     pub wall_force_sums: Vec<Vec3>,
+    /// A periodic section's slug, measured at every sample as Lethe does.
+    #[serde(default)]
+    pub slug: Option<SlugTrace>,
     /// What the last sample saw (nothing before the first).
     last: Seen,
 }
@@ -100,6 +104,7 @@ impl Sampling {
             taps,
             walls: Vec::new(),
             wall_force_sums: Vec::new(),
+            slug: slug_trace(cfg),
             last: Seen::default(),
         }
     }
@@ -178,6 +183,15 @@ impl Sampling {
             tr.slicer().frame(time, p.position, p.velocity, p.radius)
         });
         let plugs_before = self.tracker.as_ref().map_or(0, |t| t.observations.len());
+        if self.slug.is_none() {
+            // (A checkpoint written before the slug was measured: from here on.)
+            self.slug = slug_trace(cfg);
+        }
+        if let Some(sl) = self.slug.as_mut() {
+            let p = dem.particles();
+            let gas_velocity = gas.and_then(|g| g.gas.mean_superficial_velocity());
+            sl.push(time, p.position, p.velocity, p.radius, gas_velocity);
+        }
         if time >= self.settle - 0.5 * dt {
             if self.outflow_at_settle.is_none() {
                 self.outflow_at_settle = Some((time, outflow_mass(dem)));
@@ -268,6 +282,19 @@ impl Sampling {
     pub fn last_seen(&self) -> Seen {
         self.last
     }
+}
+
+/// A periodic section's slug measurement (slices one mean grain diameter long).
+fn slug_trace(cfg: &DemConfig) -> Option<SlugTrace> {
+    cfg.tube.filter(|t| t.periodic).map(|t| {
+        SlugTrace::new(
+            t.origin,
+            t.axis,
+            t.radius,
+            t.length,
+            cfg.radius_min + cfg.radius_max,
+        )
+    })
 }
 
 /// "Up" across the tube: against gravity's part across the axis (any cross direction for a

@@ -275,6 +275,13 @@ impl GasSolver for SimpleTubeGas {
             .collect()
     }
 
+    fn mean_superficial_velocity(&self) -> Option<Real> {
+        self.gas
+            .geometry
+            .periodic
+            .then_some(self.gas.mean_superficial_velocity)
+    }
+
     fn pressure_drop_per_length(&self) -> Real {
         if self.gas.geometry.periodic {
             // The mean of −∂p/∂s over a period: G (p̃ is periodic).
