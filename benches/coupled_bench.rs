@@ -122,7 +122,7 @@ fn coupled_once(scene_path: &Path, engine: &str, duration: f64) -> Result<Timing
         ],
     )
     .map_err(|e| e.to_string())?;
-    let setup = plugflow::setup::build(&scene).map_err(|e| e.to_string())?;
+    let setup = plugflow::setup::build(&scene, false).map_err(|e| e.to_string())?;
     let mut dem = setup.engine;
     let mut coupler = setup.coupler.ok_or("the scene has no gas")?;
     let steps = (duration / dem.time_step()).round() as u64;

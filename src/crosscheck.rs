@@ -65,7 +65,7 @@ pub fn crosscheck(
             source,
         };
         let scene = Scene::load(scene_path, &s).map_err(scene_err)?;
-        drop(crate::setup::build(&scene).map_err(scene_err)?);
+        drop(crate::setup::build(&scene, false).map_err(scene_err)?);
         runs.push((e.clone(), s));
     }
     std::fs::create_dir_all(out_dir).map_err(|e| io(out_dir, &e))?;

@@ -200,6 +200,16 @@ fn settling_starts_the_clock_on_a_bed_at_rest() {
         p.position.iter().map(|x| x[2]).sum::<f64>() / p.len() as f64
     };
     assert!(mean_z(&dem) < mean_z(&placed), "settling lowered the bed");
+    // A run whose grains come from a checkpoint (`--resume`, `--from`) does not settle the
+    // scene's own first: its engine holds the placed grains, untouched, until the
+    // checkpoint's replace them.
+    let path = dir.join("scene.toml");
+    std::fs::write(&path, &text).unwrap();
+    let scene = Scene::load(&path, &[]).unwrap();
+    let restoring = plugflow::setup::build(&scene, true).unwrap();
+    let p = restoring.engine.particles();
+    let q = placed.particles();
+    assert!(p.position == q.position, "placed, not settled");
 }
 
 /// A box without gravity, 1.4 mm grains, Hooke e = 0.5: a free grain meets a frozen one

@@ -385,14 +385,20 @@ fn a_periodic_section_with_the_simple_gas_holds_its_flow_and_drives_the_grains()
     assert_eq!(code, 0, "{log}");
     let s = read_summary(&out);
     let held = &s["slug"]["gas_mean_superficial_velocity_m_s"];
-    let (mean, std) = (held["mean"].as_f64().unwrap(), held["std"].as_f64().unwrap());
+    let (mean, std) = (
+        held["mean"].as_f64().unwrap(),
+        held["std"].as_f64().unwrap(),
+    );
     assert!(
         (mean / 1.5 - 1.0).abs() < 1e-6 && std < 1e-6,
         "mean superficial velocity {mean} ± {std} m/s"
     );
     let dp = s["pressure_drop_hpa_per_m"].as_f64().unwrap() * 100.0;
     let empty = 8.0 * 1.81e-5 * 1.5 / (0.01f64 * 0.01);
-    assert!(dp.is_finite() && dp > 2.0 * empty, "G {dp} Pa/m, empty pipe {empty}");
+    assert!(
+        dp.is_finite() && dp > 2.0 * empty,
+        "G {dp} Pa/m, empty pipe {empty}"
+    );
     let flow = s["solids_mass_flow_kg_per_h"].as_f64().unwrap();
     assert!(flow > 0.1, "solids flow {flow} kg/h");
     assert_eq!(s["gas_model"], "simple");

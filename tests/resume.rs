@@ -126,13 +126,17 @@ fn assert_same_run(straight: &Path, resumed: &Path, what: &str) {
         );
     }
     let text = |d: &Path, f: &str| std::fs::read_to_string(d.join(f)).unwrap();
-    for f in ["timeseries.csv", "particles.pvd", "gas.pvd", "run.xdmf"] {
-        // (`gas.pvd` only for a run with gas: then both have it.)
-        if f == "gas.pvd" && !straight.join(f).exists() {
-            assert!(
-                !resumed.join(f).exists(),
-                "{what}: a gas series without gas"
-            );
+    for f in [
+        "timeseries.csv",
+        "particles.pvd",
+        "gas.pvd",
+        "run.xdmf",
+        "slug.csv",
+    ] {
+        // (`gas.pvd` only for a run with gas, `slug.csv` for a periodic section: then both
+        // have it.)
+        if (f == "gas.pvd" || f == "slug.csv") && !straight.join(f).exists() {
+            assert!(!resumed.join(f).exists(), "{what}: {f} in one run only");
             continue;
         }
         assert_eq!(text(straight, f), text(resumed, f), "{what}: {f} differs");

@@ -7,7 +7,9 @@
 //!
 //! File: `checkpoints/checkpoint_<step>.pfc` =
 //! `MAGIC (8 bytes) | format (u32 LE) | payload length (u64 LE) | FNV-1a 64 of the payload
-//! (u64 LE) | payload (postcard)`. Written to a temporary name, synced, then renamed: a
+//! (u64 LE) | payload (postcard)`, the payload being the [`Checkpoint`] followed by the
+//! measurements added since format 1 was fixed (today: a periodic section's slug trace), so
+//! that a checkpoint written before them still resumes (they start at the resume). Written to a temporary name, synced, then renamed: a
 //! run killed while writing leaves the previous checkpoint whole. The last two are kept.
 
 use std::io::Write;
@@ -85,10 +87,12 @@ pub fn write(out_dir: &Path, c: &Checkpoint) -> Result<PathBuf, RunError> {
         move |source| RunError::Io { path, source }
     };
     std::fs::create_dir_all(&dir).map_err(io(&dir))?;
-    let payload = postcard::to_allocvec(c).map_err(|e| RunError::Io {
+    let encode_err = |e: postcard::Error| RunError::Io {
         path: dir.display().to_string(),
         source: std::io::Error::other(format!("cannot encode the checkpoint: {e}")),
-    })?;
+    };
+    let mut payload = postcard::to_allocvec(c).map_err(encode_err)?;
+    payload.extend(postcard::to_allocvec(&c.sampling.slug).map_err(encode_err)?);
     let path = dir.join(format!("checkpoint_{:012}.pfc", c.steps_done));
     let tmp = dir.join(format!(".checkpoint_{:012}.pfc.part", c.steps_done));
     {
@@ -203,8 +207,12 @@ pub fn read(path: &Path, scene: &Scene, to: Use) -> Result<Checkpoint, Checkpoin
     if checksum(payload) != sum {
         return Err(refuse(path, "damaged: its checksum does not match"));
     }
-    let c: Checkpoint = postcard::from_bytes(payload)
+    let (mut c, extension): (Checkpoint, &[u8]) = postcard::take_from_bytes(payload)
         .map_err(|e| refuse(path, format!("cannot be decoded: {e}")))?;
+    if !extension.is_empty() {
+        c.sampling.slug = postcard::from_bytes(extension)
+            .map_err(|e| refuse(path, format!("its slug trace cannot be decoded: {e}")))?;
+    }
     let here = scene_identity(scene);
     match to {
         Use::Resume if c.scene_identity != here => {
@@ -367,6 +375,11 @@ impl Beginning {
             resume: open(resume, Use::Resume)?,
             from: open(from, Use::Start)?,
         })
+    }
+
+    /// The grains come from a checkpoint (`--resume` or `--from`).
+    pub fn takes_grains(&self) -> bool {
+        self.resume.is_some() || self.from.is_some()
     }
 
     pub fn resumes(&self) -> bool {

@@ -115,7 +115,8 @@ pub fn run(scene: &Scene, opts: &RunOptions) -> Result<RunOutcome, RunError> {
         config: cfg,
         engine: mut dem,
         coupler: mut gas,
-    } = setup::build(scene).inspect_err(|e| log.line(&format!("error: {e}")))?;
+    } = setup::build(scene, beginning.takes_grains())
+        .inspect_err(|e| log.line(&format!("error: {e}")))?;
     // The engine's own log (LIGGGHTS's) is kept beside plugflow's.
     if let Err(e) = dem.keep_log(&out_dir) {
         log.line(&format!(

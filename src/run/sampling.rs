@@ -39,8 +39,9 @@ pub struct Sampling {
     /// sample) and the sums of their forces after the settling time, N.
     pub walls: Vec<String>,
     pub wall_force_sums: Vec<Vec3>,
-    /// A periodic section's slug, measured at every sample as Lethe does.
-    #[serde(default)]
+    /// A periodic section's slug, measured at every sample as Lethe does (a checkpoint
+    /// carries it after the rest: see `checkpoint.rs`).
+    #[serde(skip)]
     pub slug: Option<SlugTrace>,
     /// What the last sample saw (nothing before the first).
     last: Seen,

@@ -51,9 +51,17 @@ pub fn validate(scene: &Scene) -> Result<Prepared, SceneError> {
     Ok(prepared)
 }
 
-/// A scene ready to run: configuration, engine, coupler.
-pub fn build(scene: &Scene) -> Result<Setup, SceneError> {
-    let Prepared { config, coupler } = prepare(scene)?;
+/// A scene ready to run: configuration, engine, coupler. `restoring`: the engine's state
+/// comes from a checkpoint next (`--resume`, `--from`), so its initial grains are not
+/// settled first (`dem.settle`: minutes of steps whose result the checkpoint replaces).
+pub fn build(scene: &Scene, restoring: bool) -> Result<Setup, SceneError> {
+    let Prepared {
+        mut config,
+        coupler,
+    } = prepare(scene)?;
+    if restoring {
+        config.settle = None;
+    }
     let engine = build_backend(scene, &config)?;
     Ok(Setup {
         config,
