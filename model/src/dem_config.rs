@@ -107,6 +107,9 @@ fn contact_laws(scene: &Scene, g: &Grains) -> LawSet {
         TangentialLawName::History => TangentialChoice::History {
             gamma_t: c.tangential_damping.map(|g| g.si),
         },
+        TangentialLawName::LiggghtsHistory => TangentialChoice::LiggghtsHistory {
+            gamma_t: c.tangential_damping.map(|g| g.si),
+        },
         TangentialLawName::CoulombViscous => TangentialChoice::CoulombViscous {
             gamma_t: c.tangential_damping.map(|g| g.si),
         },

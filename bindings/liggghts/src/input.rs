@@ -97,6 +97,52 @@ fn refuse_frozen(cfg: &DemConfig) -> Result<(), Refusal> {
 }
 
 /// Map a checked scene.
+/// Hertz with either history law: LIGGGHTS's own `model hertz` (E, ν and the restitution
+/// of its β form into `hertz`); the pairs carry only the friction.
+fn hertz_history(
+    scene: &Scene,
+    hertz: &mut Option<(f64, f64, f64, f64)>,
+    alpha: (f64, f64),
+    mu: (f64, f64),
+    dashpot_given: bool,
+) -> Result<(LinearPair, LinearPair, bool), Refusal> {
+    if dashpot_given {
+        return Err(refuse(
+            "contact.tangential_damping",
+            "LIGGGHTS's `model hertz` damps the shear spring with its own γ_t; not mapped \
+             with the scene's",
+        ));
+    }
+    // LIGGGHTS's `model hertz` damps with γ = −2√(5/6) β √(S_n m*), S_n = 2Y*√(Rδ):
+    // the built-in Tsuji form with the restitution of `beta_form_restitution`.
+    // k_n = 4/3 Y*√(Rδ), k_t = 8G*√(Rδ) and the tangential damping follow from the
+    // same E, ν and β in both engines.
+    let e_of = |alpha: f64, field: &str| -> Result<f64, Refusal> {
+        beta_form_restitution(alpha).ok_or_else(|| {
+            refuse(
+                field,
+                "this restitution needs more damping than LIGGGHTS's Hertz model can \
+                 express (|β| ≥ 1)",
+            )
+        })
+    };
+    let c = &scene.file.contact;
+    *hertz = Some((
+        c.youngs_modulus.map(|q| q.si).unwrap_or(0.0),
+        c.poisson_ratio.map(|q| q.0).unwrap_or(0.0),
+        e_of(alpha.0, "contact.restitution")?,
+        e_of(alpha.1, "contact.wall_restitution")?,
+    ));
+    let unused = LinearPair {
+        kn: 0.0,
+        kt: 0.0,
+        gamma_n: 0.0,
+        gamma_t: 0.0,
+        mu: mu.0,
+    };
+    Ok((unused, LinearPair { mu: mu.1, ..unused }, true))
+}
+
 pub fn map(scene: &Scene, cfg: &DemConfig) -> Result<Mapped, Refusal> {
     refuse_slab(cfg)?;
     refuse_frozen(cfg)?;
@@ -123,50 +169,20 @@ pub fn map(scene: &Scene, cfg: &DemConfig) -> Result<Mapped, Refusal> {
             let (pp, pw) = linear_pairs(cfg).expect("one grain size, Hooke");
             (pp, pw, cfg.laws.uses_history())
         }
-        LawSet::Hertz(TangentialSet::History(l)) if l.pp_tangential.gamma_t.is_some() => {
-            return Err(refuse(
-                "contact.tangential_damping",
-                "LIGGGHTS's `model hertz` damps the shear spring with its own γ_t; not mapped \
-                 with the scene's",
-            ))
-        }
-        LawSet::Hertz(TangentialSet::History(l)) => {
-            // LIGGGHTS's `model hertz` damps with γ = −2√(5/6) β √(S_n m*), S_n = 2Y*√(Rδ):
-            // the built-in Tsuji form with the restitution of `beta_form_restitution`.
-            // k_n = 4/3 Y*√(Rδ), k_t = 8G*√(Rδ) and the tangential damping follow from the
-            // same E, ν and β in both engines.
-            let e_of = |alpha: f64, field: &str| -> Result<f64, Refusal> {
-                beta_form_restitution(alpha).ok_or_else(|| {
-                    refuse(
-                        field,
-                        "this restitution needs more damping than LIGGGHTS's Hertz model can \
-                         express (|β| ≥ 1)",
-                    )
-                })
-            };
-            let c = &scene.file.contact;
-            hertz = Some((
-                c.youngs_modulus.map(|q| q.si).unwrap_or(0.0),
-                c.poisson_ratio.map(|q| q.0).unwrap_or(0.0),
-                e_of(l.pp_normal.alpha, "contact.restitution")?,
-                e_of(l.pw_normal.alpha, "contact.wall_restitution")?,
-            ));
-            let unused = LinearPair {
-                kn: 0.0,
-                kt: 0.0,
-                gamma_n: 0.0,
-                gamma_t: 0.0,
-                mu: l.pp_tangential.mu,
-            };
-            (
-                unused,
-                LinearPair {
-                    mu: l.pw_tangential.mu,
-                    ..unused
-                },
-                true,
-            )
-        }
+        LawSet::Hertz(TangentialSet::History(l)) => hertz_history(
+            scene,
+            &mut hertz,
+            (l.pp_normal.alpha, l.pw_normal.alpha),
+            (l.pp_tangential.mu, l.pw_tangential.mu),
+            l.pp_tangential.gamma_t.is_some(),
+        )?,
+        LawSet::Hertz(TangentialSet::LiggghtsHistory(l)) => hertz_history(
+            scene,
+            &mut hertz,
+            (l.pp_normal.alpha, l.pw_normal.alpha),
+            (l.pp_tangential.mu, l.pw_tangential.mu),
+            l.pp_tangential.gamma_t.is_some(),
+        )?,
         LawSet::Hertz(TangentialSet::CoulombViscous(_)) => {
             return Err(refuse(
                 "contact.tangential",

@@ -246,6 +246,15 @@ pub fn map(scene: &Scene, cfg: &DemConfig) -> Result<Setup, Refusal> {
     };
     let rho = cfg.density;
     let (law, grain, cap, tube_wall, en_pp, en_pw) = match &cfg.laws {
+        LawSet::Hooke(TangentialSet::LiggghtsHistory(_))
+        | LawSet::Hertz(TangentialSet::LiggghtsHistory(_)) => {
+            return Err(refuse(
+                "contact.tangential",
+                "`liggghts_history` is LIGGGHTS's shear spring for cross-checks against \
+                 LIGGGHTS; YADE's Cundall–Strack spring is not shown to keep its conventions \
+                 (the cap on the spring alone, no dashpot while sliding); use `history`",
+            ))
+        }
         LawSet::Hooke(TangentialSet::CoulombViscous(_))
         | LawSet::Hertz(TangentialSet::CoulombViscous(_)) => {
             return Err(refuse(

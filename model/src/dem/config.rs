@@ -2,7 +2,8 @@
 //! walls, box, inlet (built from a scene by `crate::dem_config`).
 
 use super::contact::{
-    ConstantTorque, CoulombViscous, Hertz, History, Hooke, NormalLaw, RollingPair, TangentialLaw,
+    ConstantTorque, CoulombViscous, Hertz, History, Hooke, LiggghtsHistory, NormalLaw, RollingPair,
+    TangentialLaw,
 };
 use super::forces::Laws;
 use super::placement::Region;
@@ -25,6 +26,7 @@ pub enum LawSet {
 #[derive(Debug, Clone)]
 pub enum TangentialSet<N> {
     History(Laws<N, History>),
+    LiggghtsHistory(Laws<N, LiggghtsHistory>),
     CoulombViscous(Laws<N, CoulombViscous>),
 }
 
@@ -65,6 +67,12 @@ impl<N: NormalLaw> TangentialSet<N> {
                 History { mu: mu_pp, gamma_t },
                 History { mu: mu_pw, gamma_t },
             )),
+            TangentialChoice::LiggghtsHistory { gamma_t } => TangentialSet::LiggghtsHistory(laws(
+                pp_normal,
+                pw_normal,
+                LiggghtsHistory { mu: mu_pp, gamma_t },
+                LiggghtsHistory { mu: mu_pw, gamma_t },
+            )),
             TangentialChoice::CoulombViscous { gamma_t } => TangentialSet::CoulombViscous(laws(
                 pp_normal,
                 pw_normal,
@@ -77,6 +85,7 @@ impl<N: NormalLaw> TangentialSet<N> {
     fn visit<V: LawVisitor>(&self, v: V) -> V::Out {
         match self {
             TangentialSet::History(l) => v.visit(l),
+            TangentialSet::LiggghtsHistory(l) => v.visit(l),
             TangentialSet::CoulombViscous(l) => v.visit(l),
         }
     }
@@ -84,6 +93,7 @@ impl<N: NormalLaw> TangentialSet<N> {
     fn attach_walls(&mut self, walls: &[Wall]) {
         match self {
             TangentialSet::History(l) => l.attach_walls(walls),
+            TangentialSet::LiggghtsHistory(l) => l.attach_walls(walls),
             TangentialSet::CoulombViscous(l) => l.attach_walls(walls),
         }
     }
@@ -92,6 +102,7 @@ impl<N: NormalLaw> TangentialSet<N> {
     pub fn normal(&self) -> (&N, &N) {
         match self {
             TangentialSet::History(l) => (&l.pp_normal, &l.pw_normal),
+            TangentialSet::LiggghtsHistory(l) => (&l.pp_normal, &l.pw_normal),
             TangentialSet::CoulombViscous(l) => (&l.pp_normal, &l.pw_normal),
         }
     }
@@ -103,6 +114,9 @@ pub enum TangentialChoice {
     /// Shear spring with history, capped by Coulomb friction; `gamma_t` its dashpot (None:
     /// the normal law's damping ratio on the shear spring).
     History { gamma_t: Option<Real> },
+    /// The same spring with LIGGGHTS's conventions (cap on the spring alone, no dashpot
+    /// while sliding).
+    LiggghtsHistory { gamma_t: Option<Real> },
     /// Viscous shear capped by Coulomb friction; `gamma_t` the damping (None: the normal's).
     CoulombViscous { gamma_t: Option<Real> },
 }

@@ -44,14 +44,25 @@ pub fn linear_pairs(cfg: &DemConfig) -> Option<(LinearPair, LinearPair)> {
     let gn_pp = damping(pp.zeta, pp.kn, m_pp);
     let gn_pw = damping(pw.zeta, pw.kn, m_pw);
     // The shear damping: the history law's dashpot on k_t, or the Coulomb law's γ_t.
+    // (Both history laws: the scene's dashpot or the normal law's ratio on k_t.)
+    let spring = |given_pp: Option<Real>, given_pw: Option<Real>, mu_pp, mu_pw| {
+        (
+            given_pp.unwrap_or_else(|| damping(pp.zeta, pp.kt, m_pp)),
+            given_pw.unwrap_or_else(|| damping(pw.zeta, pw.kt, m_pw)),
+            mu_pp,
+            mu_pw,
+        )
+    };
     let (gt_pp, gt_pw, mu_pp, mu_pw) = match t {
-        TangentialSet::History(l) => (
-            l.pp_tangential
-                .gamma_t
-                .unwrap_or_else(|| damping(pp.zeta, pp.kt, m_pp)),
-            l.pw_tangential
-                .gamma_t
-                .unwrap_or_else(|| damping(pw.zeta, pw.kt, m_pw)),
+        TangentialSet::History(l) => spring(
+            l.pp_tangential.gamma_t,
+            l.pw_tangential.gamma_t,
+            l.pp_tangential.mu,
+            l.pw_tangential.mu,
+        ),
+        TangentialSet::LiggghtsHistory(l) => spring(
+            l.pp_tangential.gamma_t,
+            l.pw_tangential.gamma_t,
             l.pp_tangential.mu,
             l.pw_tangential.mu,
         ),

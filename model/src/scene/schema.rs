@@ -282,8 +282,12 @@ pub enum NormalLawName {
 pub enum TangentialLawName {
     /// The seeds' regularised Coulomb law: min(μ|F_n|, γ_t |v_t|) against the slip.
     CoulombViscous,
-    /// Cundall–Strack spring with contact history, capped by μ|F_n|.
+    /// Cundall–Strack spring with contact history, capped by μ|F_n| (LAMMPS's
+    /// `gran/hooke/history` conventions).
     History,
+    /// The same spring with LIGGGHTS's conventions (`tangential history`: the spring alone
+    /// capped by μ|F_n|, no dashpot while sliding), to cross-validate against LIGGGHTS.
+    LiggghtsHistory,
 }
 
 /// Rolling-resistance law.
@@ -304,7 +308,7 @@ pub enum RollingLawName {
 pub struct ContactSpec {
     /// `hooke` or `hertz`.
     pub normal: NormalLawName,
-    /// `history` (default) or `coulomb_viscous`.
+    /// `history` (default), `liggghts_history` or `coulomb_viscous`.
     #[serde(default = "default_tangential")]
     pub tangential: TangentialLawName,
     /// Coulomb friction coefficient μ ≥ 0, grain–grain.

@@ -9,12 +9,14 @@ pub mod coulomb_viscous;
 pub mod hertz;
 pub mod history;
 pub mod hooke;
+pub mod liggghts_history;
 
 pub use constant_torque::ConstantTorque;
 pub use coulomb_viscous::CoulombViscous;
 pub use hertz::Hertz;
 pub use history::History;
 pub use hooke::Hooke;
+pub use liggghts_history::LiggghtsHistory;
 
 use crate::dem::lanes::Num;
 use crate::Real;
