@@ -402,6 +402,16 @@ mod tests {
         });
         s.profiles = Some(serde_json::json!({}));
         s.targets = Some(Vec::new());
+        s.solids_mass_flow_kg_per_h = Some(1.0);
+        s.slug = Some(SlugSummary {
+            samples: 1,
+            slug_seen_fraction: 1.0,
+            slug_velocity_m_s: None,
+            slug_grain_velocity_m_s: None,
+            slug_length_m: None,
+            gas_mean_superficial_velocity_m_s: None,
+            lavrinec_slug_velocity_m_s: None,
+        });
         s.grains_asked = Some(10);
         s.feed_backlog_grains = Some(1);
         s.wall_forces_mean_n = [("tube".to_string(), [0.0, 0.0, 1e-3])].into();

@@ -96,7 +96,10 @@ pub fn build_backend(scene: &Scene, cfg: &DemConfig) -> Result<Box<dyn DemBacken
 /// (that is its check: the initial placement), an ABI engine answers `pf_dem_check`.
 pub fn check_engine(scene: &Scene, cfg: &DemConfig) -> Result<(), SceneError> {
     if scene.file.dem.engine == "native" {
-        return NativeDem::new(cfg.clone()).map(drop);
+        // (Placing the grains is the check; settling them, minutes of steps, is the run's.)
+        let mut cfg = cfg.clone();
+        cfg.settle = None;
+        return NativeDem::new(cfg).map(drop);
     }
     let lib = library(scene)?;
     match check_scene(&lib, &scene.to_json()) {
