@@ -114,6 +114,7 @@ pub fn coupling_from_scene(scene: &Scene, dem: &DemConfig) -> Result<Option<Coup
             let drag = build_drag(scene, g.viscosity.si, voidage_factor)?;
             gas.set_drag_law(drag.clone())
                 .map_err(|e| SceneError::field("coupling.drag", e))?;
+            gas.gas.control_interstitial = g.controlled_velocity.as_deref() == Some("interstitial");
             // Drag relaxation of a grain in a dense bed under the viscous Ergun term:
             // τ = m / (V β/(1−ε)) = ρ_s ε d² / (150 (1 − ε) μ) at ε = 0.4, the voidage the
             // drag sees (C_V ε, seed 004 eq. 11).

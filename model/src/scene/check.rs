@@ -828,6 +828,25 @@ fn check_gas(f: &SceneFile) -> Result<(), SceneError> {
             ))
         }
     }
+    if let Some(c) = g.controlled_velocity.as_deref() {
+        let periodic = f.tube.as_ref().is_some_and(|t| t.periodic)
+            || f.domain
+                .as_ref()
+                .is_some_and(|d| d.periodic.iter().any(|&p| p));
+        if !matches!(c, "superficial" | "interstitial") {
+            return Err(field_err(
+                "gas.controlled_velocity",
+                format!("unknown `{c}` (superficial, interstitial)"),
+            ));
+        }
+        if !(simple && periodic) {
+            return Err(field_err(
+                "gas.controlled_velocity",
+                "only a periodic section's flow controller with the `simple` gas holds a chosen \
+                 velocity (an open tube's inlet fixes the superficial velocity)",
+            ));
+        }
+    }
     if g.viscosity.si <= 0.0 {
         return Err(field_err("gas.viscosity", "must be positive"));
     }

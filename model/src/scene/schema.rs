@@ -101,6 +101,11 @@ pub struct GasSpec {
     pub superficial_velocity: Option<Q<Velocity>>,
     /// Volume flow of gas at P0, m³/s (v_s = 4 V̇ / (π D²)).
     pub flow: Option<Q<VolumeFlow>>,
+    /// A periodic section's flow controller, `simple` gas: what it holds at
+    /// `superficial_velocity`'s value. `superficial` (default): the section's mean
+    /// superficial velocity (1/V) ∫ ε u dV; `interstitial`: the gas's own mean velocity
+    /// ∫ ε u dV / ∫ ε dV (Lethe's flow control), larger by 1/ε̄.
+    pub controlled_velocity: Option<String>,
     /// Nodes along the axis and across the tube, e.g. `[150, 2, 2]`. d'Arcy: 1 or 2 across;
     /// simple: `[nz, 1, ny]` (2D, ny ≤ 8) or 2–64 in each cross direction (3D cut-cell tube).
     pub grid: [usize; 3],

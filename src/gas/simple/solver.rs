@@ -42,6 +42,9 @@ pub struct SimpleGas {
     /// A periodic grid's mean superficial velocity along the flow at the end of the last
     /// solve, m/s: (1/V) ∫ ε u dV (the quantity the controller holds).
     pub mean_superficial_velocity: Real,
+    /// The controller holds the gas's mean interstitial velocity ∫ ε u dV / ∫ ε dV (Lethe's
+    /// flow control) instead of the mean superficial one.
+    pub control_interstitial: bool,
 }
 
 impl SimpleGas {
@@ -78,6 +81,7 @@ impl SimpleGas {
             pattern: None,
             drive_gradient: 0.0,
             mean_superficial_velocity: params.inlet_velocity,
+            control_interstitial: false,
             params,
             geometry,
         }
@@ -586,7 +590,19 @@ impl SimpleGas {
         if !g.periodic {
             return 0.0;
         }
-        let scale = 1.0 / (g.n[0] as Real * g.flow_area);
+        let superficial = 1.0 / (g.n[0] as Real * g.flow_area);
+        // The gas's volume over the section's, for the interstitial mean (∫ ε dV over the
+        // axial faces' control volumes).
+        let gas_share: Real = self.stencils[0]
+            .iter()
+            .map(|st| faces.porosity[0][st.face] * st.area)
+            .sum::<Real>()
+            * superficial;
+        let scale = if self.control_interstitial {
+            superficial / gas_share
+        } else {
+            superficial
+        };
         let alpha = self.params.relax_velocity;
         let (mut flow, mut slope) = (0.0, 0.0);
         for st in &self.stencils[0] {
@@ -595,7 +611,7 @@ impl SimpleGas {
             // 1/a_P unrelaxed (du holds α/a_P).
             slope += eps * eps * st.vol * du[0][f] / alpha * st.area * scale;
         }
-        self.mean_superficial_velocity = flow;
+        self.mean_superficial_velocity = flow * superficial / scale;
         let target = self.params.inlet_velocity;
         let missed = (flow - target).abs() / target.abs().max(1e-300);
         if slope <= 0.0 {

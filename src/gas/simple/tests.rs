@@ -482,6 +482,12 @@ fn periodic_packed_bed_is_driven_by_the_drag_alone() {
         g.drive_gradient, r.iterations
     );
     assert!((g.drive_gradient / expect - 1.0).abs() < 1e-3);
+    // Holding the gas's own mean velocity instead (Lethe's flow control): the superficial
+    // mean is ε times the target, to the solver's tolerance.
+    g.control_interstitial = true;
+    g.solve_steady(1e-10, 4000).unwrap();
+    let held = g.mean_superficial_velocity / (eps * big_u);
+    assert!((held - 1.0).abs() < 1e-8, "{held}");
 }
 
 /// A plug at rest in a periodic 3D tube, stepped in time: every step holds the mean
