@@ -168,8 +168,10 @@ impl FusedKick<'_> {
 }
 
 /// Grains of a block the fused integration kicks together: small enough that the block's
-/// lines stay in the nearest caches between its forces and its kicks.
-const FUSED_ROWS: usize = 128;
+/// lines stay in the nearest caches between its forces and its kicks (512 grains' columns
+/// are ~200 kB), large enough that a block's set-up is lost in its work (128 measured the
+/// same on the chute, and no faster on the bench bed).
+const FUSED_ROWS: usize = 512;
 
 /// Effective mass and radius of every grain pair when all grains are alike.
 #[derive(Debug, Clone, Copy)]
@@ -323,9 +325,8 @@ pub struct ContactScratch {
     /// Grain–grain: x_j − x_i by component, m, as the detection found it (so the laws load
     /// four contacts' separations at once instead of gathering eight positions).
     gap: [Vec<Real>; 3],
-    /// Grain–grain: the contact's shear history by component, m, as the detection found it
-    /// (read there anyway to clear it; the laws then load four contacts' at once).
-    shear: [Vec<Real>; 3],
+    /// Grain–grain: the listed pairs that do not touch (their histories to clear).
+    apart: Vec<u32>,
     /// Grain–wall: the grain.
     wall_grain: Vec<u32>,
     /// Grain–wall: overlap, m.
@@ -543,12 +544,12 @@ fn pair_contacts<N: NormalLaw, T: TangentialLaw, R: RollingLaw, S: Sizes>(
     // The lists sized for every pair of the rows to touch and a last group's padding:
     // filled by index, no push.
     let room = start[rows.end] as usize - start[rows.start] as usize + LANES;
-    for list in [&mut sc.pair, &mut sc.partner, &mut sc.grain] {
+    for list in [&mut sc.pair, &mut sc.partner, &mut sc.grain, &mut sc.apart] {
         if list.len() < room {
             list.resize(room, 0);
         }
     }
-    for list in sc.gap.iter_mut().chain(&mut sc.shear) {
+    for list in &mut sc.gap {
         if list.len() < room {
             list.resize(room, 0.0);
         }
@@ -556,10 +557,11 @@ fn pair_contacts<N: NormalLaw, T: TangentialLaw, R: RollingLaw, S: Sizes>(
     // Without branches: every listed pair is written at the next free slot, which only a
     // touching pair claims (about half the listed pairs touch in a dense plug, so a branch
     // on it was mispredicted at every other pair: this loop took a third of the force pass).
-    // Every listed pair's history moves to the contact list and is cleared where it was
-    // kept: a touching pair's comes back after the laws, a pair not touching stays at +0.0.
-    // (Masking the history in place compiled to a branch on `touch`, mispredicted as often.)
-    let mut nc = 0;
+    // A pair that does not touch claims the next slot of a second list, whose histories are
+    // then cleared (+0.0). (Masking each history in place compiled to a branch on `touch`,
+    // mispredicted at every other pair of a flowing bed; on LAMMPS's chute this list made
+    // the whole step a quarter faster.)
+    let (mut nc, mut na) = (0, 0);
     let (pair, partner_of, grain) = (
         &mut sc.pair[..room],
         &mut sc.partner[..room],
@@ -567,8 +569,7 @@ fn pair_contacts<N: NormalLaw, T: TangentialLaw, R: RollingLaw, S: Sizes>(
     );
     let [gx, gy, gz] = &mut sc.gap;
     let (gx, gy, gz) = (&mut gx[..room], &mut gy[..room], &mut gz[..room]);
-    let [sx, sy, sz] = &mut sc.shear;
-    let (sx, sy, sz) = (&mut sx[..room], &mut sy[..room], &mut sz[..room]);
+    let apart = &mut sc.apart[..room];
     for i in rows {
         let (xi, ri) = (g.position.at(i), sizes.radius(&g, i));
         let (k0, k1) = (start[i] as usize, start[i + 1] as usize);
@@ -590,14 +591,14 @@ fn pair_contacts<N: NormalLaw, T: TangentialLaw, R: RollingLaw, S: Sizes>(
             gx[nc] = d[0];
             gy[nc] = d[1];
             gz[nc] = d[2];
-            if T::USES_HISTORY {
-                let h = &mut out.history[k - hist_off];
-                sx[nc] = h[0];
-                sy[nc] = h[1];
-                sz[nc] = h[2];
-                *h = [0.0; 3];
-            }
+            apart[na] = k as u32;
             nc += touch as usize;
+            na += !touch as usize;
+        }
+    }
+    if T::USES_HISTORY {
+        for &k in &apart[..na] {
+            out.history[k as usize - hist_off] = [0.0; 3];
         }
     }
     // The last group's lanes past the end repeat the last contact (computed, then dropped),
@@ -607,7 +608,7 @@ fn pair_contacts<N: NormalLaw, T: TangentialLaw, R: RollingLaw, S: Sizes>(
             sc.pair[p] = sc.pair[nc - 1];
             sc.partner[p] = sc.partner[nc - 1];
             sc.grain[p] = sc.grain[nc - 1];
-            for list in sc.gap.iter_mut().chain(&mut sc.shear) {
+            for list in &mut sc.gap {
                 list[p] = list[nc - 1];
             }
         }
@@ -618,7 +619,7 @@ fn pair_contacts<N: NormalLaw, T: TangentialLaw, R: RollingLaw, S: Sizes>(
         let gap = std::array::from_fn(|c| Lanes(four(&sc.gap[c], base)));
         let slot = k.map(|k| k - hist_off);
         let mut shear = if T::USES_HISTORY {
-            std::array::from_fn(|c| Lanes(four(&sc.shear[c], base)))
+            gather3(out.history, &slot)
         } else {
             [Lanes::splat(0.0); 3]
         };

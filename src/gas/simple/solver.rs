@@ -591,14 +591,14 @@ impl SimpleGas {
             return 0.0;
         }
         let superficial = 1.0 / (g.n[0] as Real * g.flow_area);
-        // The gas's volume over the section's, for the interstitial mean (∫ ε dV over the
-        // axial faces' control volumes).
-        let gas_share: Real = self.stencils[0]
-            .iter()
-            .map(|st| faces.porosity[0][st.face] * st.area)
-            .sum::<Real>()
-            * superficial;
         let scale = if self.control_interstitial {
+            // The gas's volume over the section's, for the interstitial mean (∫ ε dV over
+            // the axial faces' control volumes).
+            let gas_share: Real = self.stencils[0]
+                .iter()
+                .map(|st| faces.porosity[0][st.face] * st.area)
+                .sum::<Real>()
+                * superficial;
             superficial / gas_share
         } else {
             superficial
