@@ -457,10 +457,9 @@ impl NativeDem {
         out_mass
     }
 
-    /// Forces on all grains for the current positions and predicted velocities.
-    /// The force pass; with `fuse`, the integration phase `fuse` of every grain whose force
-    /// is final inside it (the verdicts in `fused_result`; [`Self::integrate`] with `fused`
-    /// does the rest).
+    /// Forces on all grains for the current positions and predicted velocities; with
+    /// `fuse`, also that integration phase of every grain whose force is final inside the
+    /// pass (verdicts in `fused_result`; [`Self::integrate`] with `fused` does the rest).
     fn compute_forces(&mut self, team: &Team, fuse: Option<PassKind>) {
         let NativeDem {
             cfg,
