@@ -20,11 +20,7 @@
 //! restitution, so a grain against a frozen one (m* = m, LAMMPS γ = 50 m) is damped by
 //! γ = 2 ζ √(k m) = 35 m instead; grain pairs (m* = m/2) are damped alike.
 //!
-//! With `--separate-integration`, plugflow integrates in a pass of its own after the force
-//! pass instead of block by block inside it (the same bits; for comparing the two).
-//!
 //! cargo bench --bench chute_bench [-- --steps N] [--repeat R] [--pour P] [--profile M]
-//! [--separate-integration]
 //! (LAMMPS's `lmp` from `apt-get install lammps`; skipped with a message when missing)
 
 use std::path::{Path, PathBuf};
@@ -197,9 +193,7 @@ file = "{file}"
     std::fs::write(&path, text).expect("scene");
     let scene = Scene::load(&path, &[]).unwrap_or_else(|e| panic!("chute scene: {e}"));
     let cfg = plugflow::setup::dem_config(&scene).unwrap_or_else(|e| panic!("chute: {e}"));
-    let mut e = NativeDem::new(cfg).unwrap_or_else(|e| panic!("chute engine: {e}"));
-    e.set_fused_integration(!std::env::args().any(|a| a == "--separate-integration"));
-    e
+    NativeDem::new(cfg).unwrap_or_else(|e| panic!("chute engine: {e}"))
 }
 
 /// The engine's grains in id order (ids number the file's lines), with the file's frozen

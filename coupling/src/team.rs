@@ -217,22 +217,6 @@ impl<T> Shared<T> {
         );
         std::slice::from_raw_parts_mut(self.ptr.add(lo), hi - lo)
     }
-
-    /// The start of the elements (for read-only views that coexist with ranges handed out
-    /// over elements they no longer read).
-    pub fn as_ptr(&self) -> *const T {
-        self.ptr
-    }
-
-    /// The number of elements.
-    pub fn len(&self) -> usize {
-        self.len
-    }
-
-    /// Whether there are none.
-    pub fn is_empty(&self) -> bool {
-        self.len == 0
-    }
 }
 
 #[cfg(test)]

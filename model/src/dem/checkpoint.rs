@@ -146,9 +146,6 @@ pub(super) fn restore(dem: &mut NativeDem, bytes: &[u8]) -> Result<(), BackendEr
         dem.bounds.clear();
         dem.rebuild_pending = true;
     }
-    if !dem.bounds.is_empty() {
-        dem.survey_chunks();
-    }
     Ok(())
 }
 

@@ -7,20 +7,8 @@
 //! its range, and a pair whose partner j lies in a later range sends j's share to a spill list.
 //! The integration pass that follows adds the spills, each chunk those of its own grains, in
 //! chunk order and list order, so a run is bitwise reproducible for a given thread count.
-//!
-//! In the middle of an `advance` the integration is fused into the force pass ([`FusedKick`]):
-//! a half list holds only partners j > i, so once rows lo..b, their walls and gravity are
-//! done, grains below b have their whole force and no later row reads them. Each block of
-//! rows is then kicked and drifted while its lines are still in cache (the separate pass read
-//! ten columns of every grain back from memory: on LAMMPS's chute, half of the step). The
-//! operations and their order are the integration pass's, so the results are bitwise the same.
-
-use std::marker::PhantomData;
-
-use plugflow_coupling::team::Shared;
 
 use super::contact::{NormalLaw, RollingLaw, RollingPair, TangentialLaw};
-use super::integrate::{integrate_chunk, ChunkColumns, ChunkVerdict, PassKind};
 use super::lanes::{Lanes, Num, LANES};
 use super::vec3::{add, add_assign, cross, dot, norm2, scale, sub, sub_assign};
 use super::walls::Wall;
@@ -55,123 +43,16 @@ impl<N, T: TangentialLaw> Laws<N, T> {
     }
 }
 
-/// Grain data the force loop reads.
+/// Read-only grain data the force loop needs.
 #[derive(Clone, Copy)]
 pub struct GrainsIn<'a> {
-    pub position: GrainColumn<'a>,
-    /// The velocities the dashpots see (predicted to t + dt), m/s.
-    pub velocity: GrainColumn<'a>,
-    pub angular_velocity: GrainColumn<'a>,
+    pub position: &'a [Vec3],
+    pub velocity: &'a [Vec3],
+    pub angular_velocity: &'a [Vec3],
     pub radius: &'a [Real],
     pub mass: &'a [Real],
     pub external_force: &'a [Vec3],
 }
-
-/// A column of grain vectors the force pass reads while the fused integration
-/// ([`FusedKick`]) writes the grains the pass is done with: a raw view, because a shared
-/// slice would promise that no element changes while it is held. Reads are bounds-checked.
-#[derive(Clone, Copy)]
-pub struct GrainColumn<'a> {
-    ptr: *const Vec3,
-    len: usize,
-    _life: PhantomData<&'a [Vec3]>,
-}
-
-// SAFETY: a view only reads; writes to the column during a pass go to elements no member
-// reads any more (see `FusedKick`).
-unsafe impl Send for GrainColumn<'_> {}
-unsafe impl Sync for GrainColumn<'_> {}
-
-impl<'a> GrainColumn<'a> {
-    /// A view of a column nobody writes while the view lives.
-    pub fn of(v: &'a [Vec3]) -> Self {
-        Self {
-            ptr: v.as_ptr(),
-            len: v.len(),
-            _life: PhantomData,
-        }
-    }
-
-    /// A view of a column that ranges of `v` are written through while the view lives.
-    ///
-    /// # Safety
-    /// Elements written through `v` must not be read through the view after the write, and
-    /// the column must outlive the view (both hold inside one `Team::run`).
-    pub unsafe fn of_shared(v: &Shared<Vec3>) -> Self {
-        Self {
-            ptr: v.as_ptr(),
-            len: v.len(),
-            _life: PhantomData,
-        }
-    }
-
-    /// Grain i's vector.
-    #[inline(always)]
-    pub fn at(self, i: usize) -> Vec3 {
-        assert!(i < self.len, "grain {i} of {}", self.len);
-        // SAFETY: in bounds (just checked); not written since the view was made (see
-        // `of_shared`).
-        unsafe { self.ptr.add(i).read() }
-    }
-}
-
-/// The integration pass run inside the force pass, block by block (see the module's notes):
-/// what [`integrate_chunk`] needs beyond the chunk's forces and torques.
-pub struct FusedKick<'a> {
-    /// The phase: a step's last half kick and the next step's half kick and drift.
-    pub kind: PassKind,
-    /// The chunk's first grain that no earlier chunk lists as a partner. Grains below it may
-    /// still take spills from earlier chunks (running on other threads): the integration pass
-    /// that follows kicks them. Its chunk's `lo` when it has one (a single chunk: 0).
-    pub first_free: usize,
-    pub inv_mass: &'a [Real],
-    pub inv_inertia: &'a [Real],
-    /// The columns the kicks write, whole; the pass writes grains first_free..hi of its
-    /// chunk, each once no row of any chunk reads it any more.
-    pub velocity: &'a Shared<Vec3>,
-    pub angular_velocity: &'a Shared<Vec3>,
-    pub position: &'a Shared<Vec3>,
-    pub velocity_pred: &'a Shared<Vec3>,
-    pub angular_velocity_pred: &'a Shared<Vec3>,
-    /// Positions at the last neighbour build (drift check), whole; `None` when untracked.
-    pub reference: Option<&'a [Vec3]>,
-}
-
-impl FusedKick<'_> {
-    /// Kick and drift grains a..b, whose forces (`force`, `torque`: from a) are final.
-    ///
-    /// # Safety
-    /// Grains a..b belong to the calling member's chunk, at or above `first_free`, and no
-    /// row of any chunk reads them after this call in the current pass.
-    #[inline(always)]
-    unsafe fn integrate(
-        &self,
-        force: &[Vec3],
-        torque: &[Vec3],
-        a: usize,
-        b: usize,
-    ) -> ChunkVerdict {
-        let cols = ChunkColumns {
-            force: &force[..b - a],
-            torque: &torque[..b - a],
-            inv_mass: &self.inv_mass[a..b],
-            inv_inertia: &self.inv_inertia[a..b],
-            velocity: self.velocity.range(a, b),
-            position: self.position.range(a, b),
-            angular_velocity: self.angular_velocity.range(a, b),
-            velocity_pred: self.velocity_pred.range(a, b),
-            angular_velocity_pred: self.angular_velocity_pred.range(a, b),
-            reference: self.reference.map(|r| &r[a..b]),
-        };
-        integrate_chunk(cols, self.kind)
-    }
-}
-
-/// Grains of a block the fused integration kicks together: small enough that the block's
-/// lines stay in the nearest caches between its forces and its kicks (512 grains' columns
-/// are ~200 kB), large enough that a block's set-up is lost in its work (128 measured the
-/// same on the chute, and no faster on the bench bed).
-const FUSED_ROWS: usize = 512;
 
 /// Effective mass and radius of every grain pair when all grains are alike.
 #[derive(Debug, Clone, Copy)]
@@ -229,40 +110,6 @@ impl Sizes for UniformPair {
     }
 }
 
-/// Grains of one radius but not one mass (a frozen base, mixed densities): the radii are
-/// constants, m* comes per pair. r* is r·r/(r + r) as [`EachOwn`] forms it, so the two
-/// give the same bits.
-#[derive(Clone, Copy)]
-struct AlikeRadius {
-    radius: Real,
-    r_eff: Real,
-}
-
-impl Sizes for AlikeRadius {
-    #[inline(always)]
-    fn radius(self, _: &GrainsIn<'_>, _: usize) -> Real {
-        self.radius
-    }
-    #[inline(always)]
-    fn pair(
-        self,
-        g: &GrainsIn<'_>,
-        i: &[usize; LANES],
-        j: &[usize; LANES],
-    ) -> (Lanes, Lanes, Lanes, Lanes) {
-        let r = Lanes::splat(self.radius);
-        let (mi, mj) = (Lanes(i.map(|i| g.mass[i])), Lanes(j.map(|j| g.mass[j])));
-        (r, r, (mi * mj / (mi + mj)).sqrt(), Lanes::splat(self.r_eff))
-    }
-    #[inline(always)]
-    fn wall(self, g: &GrainsIn<'_>, i: &[usize; LANES]) -> (Lanes, Lanes) {
-        (
-            Lanes::splat(self.radius),
-            Lanes(i.map(|i| g.mass[i])).sqrt(),
-        )
-    }
-}
-
 /// Grains of several sizes or densities: each pair's constants from its grains.
 #[derive(Clone, Copy)]
 struct EachOwn;
@@ -296,8 +143,6 @@ impl Sizes for EachOwn {
 pub struct StepSettings<'a> {
     /// Set when all grains have one size and density: pair constants need no division.
     pub uniform: Option<UniformPair>,
-    /// Set when all grains have one radius, m (`uniform` may still be none: masses differ).
-    pub alike_radius: Option<Real>,
     pub walls: &'a [Wall],
     pub gravity: Vec3,
     pub dt: Real,
@@ -325,8 +170,6 @@ pub struct ContactScratch {
     /// Grain–grain: x_j − x_i by component, m, as the detection found it (so the laws load
     /// four contacts' separations at once instead of gathering eight positions).
     gap: [Vec<Real>; 3],
-    /// Grain–grain: the listed pairs that do not touch (their histories to clear).
-    apart: Vec<u32>,
     /// Grain–wall: the grain.
     wall_grain: Vec<u32>,
     /// Grain–wall: overlap, m.
@@ -412,15 +255,10 @@ impl<N, T, R> Copy for ForceInputs<'_, N, T, R> {}
 pub fn chunk_forces<N: NormalLaw, T: TangentialLaw, R: RollingLaw>(
     inputs: ForceInputs<'_, N, T, R>,
     out: ChunkOut<'_>,
-    fused: Option<&FusedKick<'_>>,
-) -> ChunkVerdict {
-    match (inputs.set.uniform, inputs.set.alike_radius) {
-        (Some(u), _) => chunk_forces_sized(inputs, out, fused, u),
-        (None, Some(radius)) => {
-            let r_eff = radius * radius / (radius + radius);
-            chunk_forces_sized(inputs, out, fused, AlikeRadius { radius, r_eff })
-        }
-        (None, None) => chunk_forces_sized(inputs, out, fused, EachOwn),
+) {
+    match inputs.set.uniform {
+        Some(u) => chunk_forces_sized(inputs, out, u),
+        None => chunk_forces_sized(inputs, out, EachOwn),
     }
 }
 
@@ -429,15 +267,15 @@ pub fn chunk_forces<N: NormalLaw, T: TangentialLaw, R: RollingLaw>(
 fn chunk_forces_sized<N: NormalLaw, T: TangentialLaw, R: RollingLaw, S: Sizes>(
     inputs: ForceInputs<'_, N, T, R>,
     out: ChunkOut<'_>,
-    fused: Option<&FusedKick<'_>>,
     sizes: S,
-) -> ChunkVerdict {
+) {
     #[cfg(target_arch = "x86_64")]
     if std::arch::is_x86_feature_detected!("avx2") {
         // SAFETY: the CPU has AVX2 (checked just above).
-        return unsafe { chunk_forces_avx2(inputs, out, fused, sizes) };
+        unsafe { chunk_forces_avx2(inputs, out, sizes) };
+        return;
     }
-    chunk_forces_body(inputs, out, fused, sizes)
+    chunk_forces_body(inputs, out, sizes);
 }
 
 /// [`chunk_forces_body`] compiled for AVX2 (no FMA: the same roundings as the baseline).
@@ -446,37 +284,40 @@ fn chunk_forces_sized<N: NormalLaw, T: TangentialLaw, R: RollingLaw, S: Sizes>(
 unsafe fn chunk_forces_avx2<N: NormalLaw, T: TangentialLaw, R: RollingLaw, S: Sizes>(
     inputs: ForceInputs<'_, N, T, R>,
     out: ChunkOut<'_>,
-    fused: Option<&FusedKick<'_>>,
     sizes: S,
-) -> ChunkVerdict {
-    chunk_forces_body(inputs, out, fused, sizes)
+) {
+    chunk_forces_body(inputs, out, sizes);
 }
 
-/// The chunk's forces, by blocks of rows when the integration is fused (each block: its
-/// pairs, its wall contacts, gravity and the fluid force, then the kicks of its grains),
-/// else in one block. A grain's force sums the same terms in the same order either way.
 #[inline(always)]
 fn chunk_forces_body<N: NormalLaw, T: TangentialLaw, R: RollingLaw, S: Sizes>(
     inputs: ForceInputs<'_, N, T, R>,
     out: ChunkOut<'_>,
-    fused: Option<&FusedKick<'_>>,
     sizes: S,
-) -> ChunkVerdict {
-    let ForceInputs { set, grains: g, .. } = inputs;
+) {
+    let ForceInputs {
+        set,
+        grains: g,
+        start,
+        ..
+    } = inputs;
     let lo = out.lo;
     let hi = lo + out.force.len();
     // Every column cut to one length: a lane's index is then checked once, not per column.
-    let n = g.radius.len();
+    let n = g.position.len();
     let g = GrainsIn {
+        position: &g.position[..n],
+        velocity: &g.velocity[..n],
+        angular_velocity: &g.angular_velocity[..n],
         radius: &g.radius[..n],
         mass: &g.mass[..n],
         external_force: &g.external_force[..n],
-        ..g
     };
     let inputs = ForceInputs {
         grains: g,
         ..inputs
     };
+    let hist_off = start[lo] as usize;
     for f in out.force.iter_mut() {
         *f = [0.0; 3];
     }
@@ -485,36 +326,14 @@ fn chunk_forces_body<N: NormalLaw, T: TangentialLaw, R: RollingLaw, S: Sizes>(
             *t = [0.0; 3];
         }
     }
-    for w in out.wall_force.iter_mut() {
-        *w = [0.0; 3];
-    }
 
     let mut out = out;
-    let mut verdict = ChunkVerdict::CLEAN;
-    let block = if fused.is_some() { FUSED_ROWS } else { hi - lo };
-    let mut a = lo;
-    while a < hi {
-        let b = (a + block).min(hi);
-        pair_contacts(inputs, out.reborrow(), sizes, a..b);
-        wall_contacts(inputs, out.reborrow(), sizes, a..b);
-        for i in a..b {
-            let fi = add(scale(set.gravity, g.mass[i]), g.external_force[i]);
-            add_assign(&mut out.force[i - lo], fi);
-        }
-        if let Some(kick) = fused {
-            let from = a.max(kick.first_free);
-            if from < b {
-                // SAFETY: rows a..b are done and later rows list only partners j ≥ their
-                // row > b; grains from..b are this chunk's and no earlier chunk lists them.
-                let v = unsafe {
-                    kick.integrate(&out.force[from - lo..], &out.torque[from - lo..], from, b)
-                };
-                verdict = verdict.and(v);
-            }
-        }
-        a = b;
+    pair_contacts(inputs, out.reborrow(), sizes, hist_off);
+    wall_contacts(inputs, out.reborrow(), sizes);
+    for i in lo..hi {
+        let fi = add(scale(set.gravity, g.mass[i]), g.external_force[i]);
+        add_assign(&mut out.force[i - lo], fi);
     }
-    verdict
 }
 
 /// Grain–grain contacts of the chunk's rows: detection into the contact lists, then the laws
@@ -525,7 +344,7 @@ fn pair_contacts<N: NormalLaw, T: TangentialLaw, R: RollingLaw, S: Sizes>(
     inputs: ForceInputs<'_, N, T, R>,
     out: ChunkOut<'_>,
     sizes: S,
-    rows: std::ops::Range<usize>,
+    hist_off: usize,
 ) {
     let ForceInputs {
         set,
@@ -538,13 +357,11 @@ fn pair_contacts<N: NormalLaw, T: TangentialLaw, R: RollingLaw, S: Sizes>(
     let periodic = !offset.is_empty();
     let lo = out.lo;
     let hi = lo + out.force.len();
-    // The chunk's histories start at its first row's pairs.
-    let hist_off = start[lo] as usize;
     let sc = out.scratch;
     // The lists sized for every pair of the rows to touch and a last group's padding:
     // filled by index, no push.
-    let room = start[rows.end] as usize - start[rows.start] as usize + LANES;
-    for list in [&mut sc.pair, &mut sc.partner, &mut sc.grain, &mut sc.apart] {
+    let room = start[hi] as usize - hist_off + LANES;
+    for list in [&mut sc.pair, &mut sc.partner, &mut sc.grain] {
         if list.len() < room {
             list.resize(room, 0);
         }
@@ -557,11 +374,8 @@ fn pair_contacts<N: NormalLaw, T: TangentialLaw, R: RollingLaw, S: Sizes>(
     // Without branches: every listed pair is written at the next free slot, which only a
     // touching pair claims (about half the listed pairs touch in a dense plug, so a branch
     // on it was mispredicted at every other pair: this loop took a third of the force pass).
-    // A pair that does not touch claims the next slot of a second list, whose histories are
-    // then cleared (+0.0). (Masking each history in place compiled to a branch on `touch`,
-    // mispredicted at every other pair of a flowing bed; on LAMMPS's chute this list made
-    // the whole step a quarter faster.)
-    let (mut nc, mut na) = (0, 0);
+    // A pair that does not touch has its history cleared by a mask (+0.0 exactly).
+    let mut nc = 0;
     let (pair, partner_of, grain) = (
         &mut sc.pair[..room],
         &mut sc.partner[..room],
@@ -569,36 +383,32 @@ fn pair_contacts<N: NormalLaw, T: TangentialLaw, R: RollingLaw, S: Sizes>(
     );
     let [gx, gy, gz] = &mut sc.gap;
     let (gx, gy, gz) = (&mut gx[..room], &mut gy[..room], &mut gz[..room]);
-    let apart = &mut sc.apart[..room];
-    for i in rows {
-        let (xi, ri) = (g.position.at(i), sizes.radius(&g, i));
+    for i in lo..hi {
+        let (xi, ri) = (g.position[i], sizes.radius(&g, i));
         let (k0, k1) = (start[i] as usize, start[i + 1] as usize);
         for (k, &j) in (k0..k1).zip(&partner[k0..k1]) {
             let j = j as usize;
             let rs = ri + sizes.radius(&g, j);
-            let mut d = sub(g.position.at(j), xi);
+            let mut d = sub(g.position[j], xi);
             if periodic {
                 // Across a periodic seam: the partner's image (a shift fixed at the build).
                 let o = offset[k];
                 d = [d[0] + o[0], d[1] + o[1], d[2] + o[2]];
             }
             let touch = norm2(d) < rs * rs;
-            // (nc ≤ k − start[rows.start] < room − LANES: every slot written lies in the
-            // lists.)
+            // (nc ≤ k − hist_off < room − LANES: every slot written lies in the lists.)
             pair[nc] = k as u32;
             partner_of[nc] = j as u32;
             grain[nc] = i as u32;
             gx[nc] = d[0];
             gy[nc] = d[1];
             gz[nc] = d[2];
-            apart[na] = k as u32;
             nc += touch as usize;
-            na += !touch as usize;
-        }
-    }
-    if T::USES_HISTORY {
-        for &k in &apart[..na] {
-            out.history[k as usize - hist_off] = [0.0; 3];
+            if T::USES_HISTORY {
+                let keep = (touch as u64).wrapping_neg();
+                let h = &mut out.history[k - hist_off];
+                *h = h.map(|c| Real::from_bits(c.to_bits() & keep));
+            }
         }
     }
     // The last group's lanes past the end repeat the last contact (computed, then dropped),
@@ -668,7 +478,6 @@ fn wall_contacts<N: NormalLaw, T: TangentialLaw, R: RollingLaw, S: Sizes>(
     inputs: ForceInputs<'_, N, T, R>,
     out: ChunkOut<'_>,
     sizes: S,
-    rows: std::ops::Range<usize>,
 ) {
     let ForceInputs {
         set,
@@ -677,15 +486,16 @@ fn wall_contacts<N: NormalLaw, T: TangentialLaw, R: RollingLaw, S: Sizes>(
         ..
     } = inputs;
     let lo = out.lo;
+    let hi = lo + out.force.len();
     let sc = out.scratch;
     let nw = set.walls.len();
     for (w, wall) in set.walls.iter().enumerate() {
-        // Grains `rows` of the wall's near list; all others were a skin or more away at
+        // Grains [lo, hi) of the wall's near list; all others were a skin or more away at
         // the build, have drifted less since, and their histories with it are already zero.
         let near = &near_wall[w];
         let (a, b) = (
-            near.partition_point(|&i| (i as usize) < rows.start),
-            near.partition_point(|&i| (i as usize) < rows.end),
+            near.partition_point(|&i| (i as usize) < lo),
+            near.partition_point(|&i| (i as usize) < hi),
         );
         let room = b - a + LANES;
         if sc.wall_grain.len() < room {
@@ -698,7 +508,7 @@ fn wall_contacts<N: NormalLaw, T: TangentialLaw, R: RollingLaw, S: Sizes>(
         let mut nc = 0;
         for &i in &near[a..b] {
             let i = i as usize;
-            match wall.contact(g.position.at(i), sizes.radius(&g, i)) {
+            match wall.contact(g.position[i], sizes.radius(&g, i)) {
                 Some((overlap, n)) => {
                     sc.wall_grain[nc] = i as u32;
                     sc.wall_overlap[nc] = overlap;
@@ -723,8 +533,7 @@ fn wall_contacts<N: NormalLaw, T: TangentialLaw, R: RollingLaw, S: Sizes>(
                 }
             }
         }
-        // The chunk's force on the wall so far (its rows in order).
-        let mut on_wall = out.wall_force[w];
+        let mut on_wall = [0.0; 3];
         for base in (0..nc).step_by(LANES) {
             let i = four(&sc.wall_grain, base).map(|v| v as usize);
             let slot = i.map(|i| (i - lo) * nw + w);
@@ -771,13 +580,6 @@ fn gather3(v: &[Vec3], idx: &[usize; LANES]) -> [Lanes; 3] {
     std::array::from_fn(|c| Lanes(idx.map(|k| v[k][c])))
 }
 
-/// Component c of grain `idx[l]`'s vector in lane l.
-#[inline(always)]
-fn gather_grains(v: GrainColumn<'_>, idx: &[usize; LANES]) -> [Lanes; 3] {
-    let rows = idx.map(|k| v.at(k));
-    std::array::from_fn(|c| Lanes(rows.map(|r| r[c])))
-}
-
 /// The vector in lane l.
 #[inline(always)]
 fn lane(v: [Lanes; 3], l: usize) -> Vec3 {
@@ -800,12 +602,12 @@ fn pair_lanes<N: NormalLaw, T: TangentialLaw, R: RollingLaw, S: Sizes>(
     let rs = ri + rj;
     let dist = norm2(d).sqrt();
     let n = scale(d, Lanes::splat(1.0) / dist);
-    let mut vrel = sub(gather_grains(g.velocity, &i), gather_grains(g.velocity, &j));
+    let mut vrel = sub(gather3(g.velocity, &i), gather3(g.velocity, &j));
     let mut w_rel = [Lanes::splat(0.0); 3];
     if set.rotation {
         let (wi, wj) = (
-            gather_grains(g.angular_velocity, &i),
-            gather_grains(g.angular_velocity, &j),
+            gather3(g.angular_velocity, &i),
+            gather3(g.angular_velocity, &j),
         );
         let spin = std::array::from_fn(|c| ri * wi[c] + rj * wj[c]);
         add_assign(&mut vrel, cross(spin, n));
@@ -846,10 +648,10 @@ fn wall_lanes<N: NormalLaw, T: TangentialLaw, R: RollingLaw, S: Sizes>(
 ) -> ([Lanes; 3], [Lanes; 3], [Lanes; 3]) {
     let (laws, set, g) = (inputs.laws, inputs.set, &inputs.grains);
     let (ri, sqrt_m) = sizes.wall(g, &i);
-    let mut vrel = gather_grains(g.velocity, &i);
+    let mut vrel = gather3(g.velocity, &i);
     let mut w_rel = [Lanes::splat(0.0); 3];
     if set.rotation {
-        let wi = gather_grains(g.angular_velocity, &i);
+        let wi = gather3(g.angular_velocity, &i);
         let spin = std::array::from_fn(|c| ri * wi[c]);
         add_assign(&mut vrel, cross(spin, n));
         if R::ACTIVE {
@@ -1017,27 +819,12 @@ mod tests {
     /// Forces, torques, histories and wall forces of one chunk over all grains, through
     /// `body` (the run-time dispatch, or one compiled variant).
     type Outcome = (Vec<Vec3>, Vec<Vec3>, Vec<Vec3>, Vec<Vec3>, Vec<Vec3>);
-    type ForceBody<R> = fn(
-        ForceInputs<'_, Hertz, History, R>,
-        ChunkOut<'_>,
-        Option<&FusedKick<'_>>,
-    ) -> ChunkVerdict;
+    type ForceBody<R> = fn(ForceInputs<'_, Hertz, History, R>, ChunkOut<'_>);
     fn run<R: RollingLaw>(
         s: &Scene,
         rolling: &RollingPair<R>,
         body: ForceBody<R>,
         uniform: Option<UniformPair>,
-    ) -> Outcome {
-        run_sized(s, rolling, body, uniform, None)
-    }
-
-    /// [`run`] with the alike-radius setting too.
-    fn run_sized<R: RollingLaw>(
-        s: &Scene,
-        rolling: &RollingPair<R>,
-        body: ForceBody<R>,
-        uniform: Option<UniformPair>,
-        alike_radius: Option<Real>,
     ) -> Outcome {
         let n = s.x.len();
         let (mut force, mut torque) = (vec![[0.0; 3]; n], vec![[0.0; 3]; n]);
@@ -1046,16 +833,15 @@ mod tests {
         let (mut spill, mut scratch) = (vec![], ContactScratch::default());
         let set = StepSettings {
             uniform,
-            alike_radius,
             walls: &s.walls,
             gravity: [0.0, 0.0, -9.81],
             dt: 1e-6,
             rotation: true,
         };
         let g = GrainsIn {
-            position: GrainColumn::of(&s.x),
-            velocity: GrainColumn::of(&s.v),
-            angular_velocity: GrainColumn::of(&s.w),
+            position: &s.x,
+            velocity: &s.v,
+            angular_velocity: &s.w,
             radius: &s.r,
             mass: &s.m,
             external_force: &s.fext,
@@ -1082,11 +868,7 @@ mod tests {
             offset: &[],
             near_wall: &near,
         };
-        assert_eq!(
-            body(inputs, out, None),
-            ChunkVerdict::CLEAN,
-            "nothing integrated"
-        );
+        body(inputs, out);
         assert!(spill.is_empty(), "one chunk holds every partner");
         (force, torque, history, wall_history, wall_force)
     }
@@ -1193,39 +975,6 @@ mod tests {
         (force, torque, history, wall_history, wall_force)
     }
 
-    /// Every number of an outcome, as bits.
-    fn bits(o: &Outcome) -> Vec<u64> {
-        [&o.0, &o.1, &o.2, &o.3, &o.4]
-            .iter()
-            .flat_map(|v| v.iter().flatten().map(|x| x.to_bits()))
-            .collect()
-    }
-
-    /// Grains of one radius whose masses differ (every third made as heavy as a frozen
-    /// grain) take the constant-radius path: bitwise what each pair's own constants give.
-    #[test]
-    fn alike_radii_with_mixed_masses_give_the_per_pair_bits() {
-        let mut s = scene(false);
-        let r = s.r[0];
-        assert!(s.r.iter().all(|&x| x == r));
-        for (k, m) in s.m.iter_mut().enumerate() {
-            if k % 3 == 0 {
-                *m *= super::super::state::FROZEN_MASS_FACTOR;
-            } else if k % 3 == 1 {
-                *m *= 1.7;
-            }
-        }
-        let expected = one_contact_at_a_time(&s, None);
-        let contacts = expected.2.iter().filter(|h| **h != [0.0; 3]).count();
-        assert!(contacts > 2 * LANES, "{contacts} contacts");
-        let free = RollingPair {
-            pp: NoRolling,
-            pw: NoRolling,
-        };
-        let got = run_sized(&s, &free, chunk_forces, None, Some(r));
-        assert_eq!(bits(&got), bits(&expected));
-    }
-
     #[test]
     fn lanes_give_bitwise_what_one_contact_at_a_time_gives() {
         let s = scene(true);
@@ -1238,6 +987,12 @@ mod tests {
             "{contacts} contacts"
         );
         assert!(on_walls > LANES, "{on_walls} wall contacts");
+        let bits = |o: &Outcome| -> Vec<u64> {
+            [&o.0, &o.1, &o.2, &o.3, &o.4]
+                .iter()
+                .flat_map(|v| v.iter().flatten().map(|x| x.to_bits()))
+                .collect()
+        };
         let free = RollingPair {
             pp: NoRolling,
             pw: NoRolling,
@@ -1245,7 +1000,7 @@ mod tests {
         let baseline = run(
             &s,
             &free,
-            |inputs, out, fused| chunk_forces_body(inputs, out, fused, EachOwn),
+            |inputs, out| chunk_forces_body(inputs, out, EachOwn),
             None,
         );
         assert_eq!(bits(&baseline), bits(&expected), "baseline lanes");

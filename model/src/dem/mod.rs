@@ -35,8 +35,8 @@ use plugflow_coupling::{
 
 use self::contact::{NoRolling, NormalLaw, RollingLaw, RollingPair, TangentialLaw};
 use self::forces::{
-    chunk_forces, ChunkOut, ContactScratch, ForceInputs, FusedKick, GrainColumn, GrainsIn, Laws,
-    Spill, StepSettings, UniformPair,
+    chunk_forces, ChunkOut, ContactScratch, ForceInputs, GrainsIn, Laws, Spill, StepSettings,
+    UniformPair,
 };
 use self::inlet::{draw_radius, leave_margin, leave_verdict, Feeder, Leave};
 use self::integrate::{integrate_chunk, ChunkColumns, ChunkVerdict, PassKind, BLOWUP_SPEED};
@@ -93,9 +93,6 @@ pub struct NativeDem {
     timer: StageTimer,
     /// Pair constants while every grain has the scene's one size and density.
     uniform: Option<UniformPair>,
-    /// The one radius of all grains, if they have one (frozen grains make `uniform` none
-    /// but keep this), m.
-    alike_radius: Option<Real>,
     /// Worker threads of the force and integration phases.
     threads: TeamThreads,
     /// Chunk boundaries (active chunks + 1 entries), fixed between neighbour builds.
@@ -106,14 +103,6 @@ pub struct NativeDem {
     may_leave: Vec<u32>,
     /// Per chunk: the verdict of the last integration pass.
     chunk_result: Vec<ChunkVerdict>,
-    /// Per chunk: the verdict of the integration fused into the last force pass.
-    fused_result: Vec<ChunkVerdict>,
-    /// Per chunk: its first grain no earlier chunk lists as a partner (see [`FusedKick`]),
-    /// fixed between neighbour builds.
-    first_free: Vec<usize>,
-    /// Fuse the integration into the force pass in the middle of an `advance` (the default;
-    /// off only to show that both give the same bits).
-    fuse_integration: bool,
     /// Scratch: velocities predicted to t + dt for the velocity-dependent forces.
     velocity_pred: Vec<Vec3>,
     /// Scratch: angular velocities predicted to t + dt.
@@ -164,14 +153,10 @@ impl NativeDem {
                     radius: r,
                 }
             }),
-            alike_radius: None,
             threads: TeamThreads::start(cfg.threads),
             bounds: Vec::new(),
             may_leave: Vec::new(),
             chunk_result: vec![ChunkVerdict::CLEAN; cfg.threads],
-            fused_result: vec![ChunkVerdict::CLEAN; cfg.threads],
-            first_free: Vec::new(),
-            fuse_integration: true,
             velocity_pred: Vec::new(),
             angular_velocity_pred: Vec::new(),
             cfg,
@@ -326,48 +311,6 @@ impl NativeDem {
             self.bounds.clear();
             self.bounds.extend([0, n]);
         }
-        self.survey_chunks();
-    }
-
-    /// What the force pass needs to know of the grains and chunks, found again whenever the
-    /// chunks are cut or restored: each chunk's `first_free`, and whether all radii are
-    /// alike.
-    pub(crate) fn survey_chunks(&mut self) {
-        let n = self.state.len();
-        let r0 = self.state.radius.first().copied().unwrap_or(0.0);
-        self.alike_radius = self.state.radius.iter().all(|&r| r == r0).then_some(r0);
-        // The grains of each chunk that rows of earlier chunks list as partners: their
-        // forces are complete only once those chunks are done.
-        let bounds = &self.bounds;
-        self.first_free.clear();
-        let (start, partner) = (&self.nlist.start, &self.nlist.partner);
-        if start.len() != n + 1 {
-            // No list of these grains (a build comes first): fuse nothing.
-            self.first_free.extend_from_slice(&bounds[1..]);
-            return;
-        }
-        self.first_free
-            .extend_from_slice(&bounds[..bounds.len() - 1]);
-        if bounds.len() > 2 {
-            for c in 0..bounds.len() - 2 {
-                let hi = bounds[c + 1];
-                let rows = start[bounds[c]] as usize..start[hi] as usize;
-                for &j in &partner[rows] {
-                    let j = j as usize;
-                    if j >= hi {
-                        let owner = bounds.partition_point(|&b| b <= j) - 1;
-                        self.first_free[owner] = self.first_free[owner].max(j + 1);
-                    }
-                }
-            }
-        }
-    }
-
-    /// Fuse the integration into the force pass (the default) or not. Both give the same
-    /// bits; the switch exists to show it.
-    #[doc(hidden)]
-    pub fn set_fused_integration(&mut self, on: bool) {
-        self.fuse_integration = on;
     }
 
     /// Feed the grains the inlet owes (see [`Feeder::feed`]).
@@ -457,10 +400,8 @@ impl NativeDem {
         out_mass
     }
 
-    /// Forces on all grains for the current positions and predicted velocities; with
-    /// `fuse`, also that integration phase of every grain whose force is final inside the
-    /// pass (verdicts in `fused_result`; [`Self::integrate`] with `fused` does the rest).
-    fn compute_forces(&mut self, team: &Team, fuse: Option<PassKind>) {
+    /// Forces on all grains for the current positions and predicted velocities.
+    fn compute_forces(&mut self, team: &Team) {
         let NativeDem {
             cfg,
             state,
@@ -473,16 +414,9 @@ impl NativeDem {
             velocity_pred,
             angular_velocity_pred,
             uniform,
-            alike_radius,
-            first_free,
-            fused_result,
             ..
         } = self;
         let job = ForceJob {
-            alike_radius: *alike_radius,
-            fuse,
-            first_free,
-            fused_result,
             uniform: *uniform,
             cfg,
             state,
@@ -527,11 +461,15 @@ impl NativeDem {
     }
 
     /// One integration phase over all chunks: all speeds sane, and the two largest drifts
-    /// since the last neighbour build (see [`ChunkVerdict::moved_far`]). With `fused`, the
-    /// force pass has integrated each chunk's grains from its `first_free` on: only those
-    /// below are left (with the spills earlier chunks sent them), and the verdicts combine.
-    fn integrate(&mut self, team: &Team, phase: Phase, fused: bool) -> ChunkVerdict {
-        let kind = self.pass_kind(phase);
+    /// since the last neighbour build (see [`ChunkVerdict::moved_far`]).
+    fn integrate(&mut self, team: &Team, phase: Phase) -> ChunkVerdict {
+        let (finish, start) = phase.parts();
+        let kind = PassKind {
+            dt: self.cfg.dt,
+            finish,
+            start,
+            rotation: self.cfg.rotation,
+        };
         let s = &mut self.state;
         let x_ref = self.nlist.reference_positions();
         let track = x_ref.len() == s.len();
@@ -550,11 +488,9 @@ impl NativeDem {
         // lines are in its cache; cutting this pass by grain count instead, to balance it,
         // measured slower).
         let bounds = &self.bounds;
-        let first_free = &self.first_free;
         let spills = &self.spills;
         team.run(bounds.len() - 1, &|c| {
-            let lo = bounds[c];
-            let hi = if fused { first_free[c] } else { bounds[c + 1] };
+            let (lo, hi) = (bounds[c], bounds[c + 1]);
             // SAFETY: the chunks [bounds[c], bounds[c+1]) are disjoint, and so is slot c.
             let (force, torque, result) = unsafe {
                 (
@@ -568,10 +504,7 @@ impl NativeDem {
             for spill in &spills[..c] {
                 for sp in spill {
                     let j = sp.j as usize;
-                    if (lo..bounds[c + 1]).contains(&j) {
-                        // (Below `first_free` by its definition: rows of earlier chunks
-                        // list j.)
-                        assert!(j < hi, "spill to grain {j} past {hi}");
+                    if (lo..hi).contains(&j) {
                         vec3::add_assign(&mut force[j - lo], sp.force);
                         if kind.rotation {
                             vec3::add_assign(&mut torque[j - lo], sp.torque);
@@ -600,28 +533,9 @@ impl NativeDem {
         for spill in &mut self.spills {
             spill.clear();
         }
-        let chunks = self.bounds.len() - 1;
-        let rest = self.chunk_result[..chunks]
+        self.chunk_result[..self.bounds.len() - 1]
             .iter()
-            .fold(ChunkVerdict::CLEAN, |a, &b| a.and(b));
-        if fused {
-            self.fused_result[..chunks]
-                .iter()
-                .fold(rest, |a, &b| a.and(b))
-        } else {
-            rest
-        }
-    }
-
-    /// What an integration pass of `phase` does.
-    fn pass_kind(&self, phase: Phase) -> PassKind {
-        let (finish, start) = phase.parts();
-        PassKind {
-            dt: self.cfg.dt,
-            finish,
-            start,
-            rotation: self.cfg.rotation,
-        }
+            .fold(ChunkVerdict::CLEAN, |a, &b| a.and(b))
     }
 
     /// The error for the first grain whose state blew up.
@@ -656,14 +570,12 @@ impl NativeDem {
             self.predict_velocities(false);
             self.timer.add("neighbor", t0.elapsed().as_secs_f64());
             let t0 = Instant::now();
-            self.compute_forces(team, None);
+            self.compute_forces(team);
             self.timer.add("forces", t0.elapsed().as_secs_f64());
         }
         let t0 = Instant::now();
         let skin = self.cfg.skin;
-        let mut moved_far = self
-            .integrate(team, Phase::KickDrift, false)
-            .moved_far(skin);
+        let mut moved_far = self.integrate(team, Phase::KickDrift).moved_far(skin);
         self.timer.add("integrate", t0.elapsed().as_secs_f64());
         for k in 0..steps {
             self.time += dt;
@@ -683,19 +595,17 @@ impl NativeDem {
             }
             let t3 = Instant::now();
             self.timer.add("neighbor", (t3 - t2).as_secs_f64());
+            self.compute_forces(team);
+            let t4 = Instant::now();
+            self.timer.add("forces", (t4 - t3).as_secs_f64());
             // The last half kick of this step and the first of the next use the same
-            // force, so they run as one pass except at the end of the call; that pass runs
-            // inside the force pass (see `FusedKick`), its time counted there.
+            // force, so they run as one pass except at the end of the call.
             let phase = if k + 1 == steps {
                 Phase::Kick
             } else {
                 Phase::KickKickDrift
             };
-            let fuse = self.fuse_integration && matches!(phase, Phase::KickKickDrift);
-            self.compute_forces(team, fuse.then(|| self.pass_kind(phase)));
-            let t4 = Instant::now();
-            self.timer.add("forces", (t4 - t3).as_secs_f64());
-            let verdict = self.integrate(team, phase, fuse);
+            let verdict = self.integrate(team, phase);
             self.timer.add("integrate", t4.elapsed().as_secs_f64());
             if !verdict.sane {
                 return Err(self.blowup_error());
@@ -762,7 +672,6 @@ struct IntegrateColumns {
 /// Disjoint borrows of the engine for one force phase.
 struct ForceJob<'a> {
     uniform: Option<UniformPair>,
-    alike_radius: Option<Real>,
     cfg: &'a DemConfig,
     state: &'a mut ParticleState,
     nlist: &'a mut NeighborList,
@@ -771,12 +680,8 @@ struct ForceJob<'a> {
     contact_scratch: &'a mut [ContactScratch],
     chunk_wall_force: &'a mut [Vec<Vec3>],
     wall_force: &'a mut [Vec3],
-    velocity_pred: &'a mut [Vec3],
-    angular_velocity_pred: &'a mut [Vec3],
-    /// The integration phase to fuse into the pass, if any.
-    fuse: Option<PassKind>,
-    first_free: &'a [usize],
-    fused_result: &'a mut [ChunkVerdict],
+    velocity_pred: &'a [Vec3],
+    angular_velocity_pred: &'a [Vec3],
 }
 
 /// The force job run on the scene's concrete law pair.
@@ -813,7 +718,6 @@ impl ForceJob<'_> {
         let nw = cfg.walls.len();
         let set = StepSettings {
             uniform: self.uniform,
-            alike_radius: self.alike_radius,
             walls: &cfg.walls,
             gravity: cfg.gravity,
             dt: cfg.dt,
@@ -831,41 +735,13 @@ impl ForceJob<'_> {
         let spills = Shared::new(self.spills);
         let scratch = Shared::new(self.contact_scratch);
         let wall_acc = Shared::new(self.chunk_wall_force);
-        let fused_result = Shared::new(self.fused_result);
-        // The columns the pass reads and a fused integration writes (grains no row reads
-        // any more: see `FusedKick`).
-        let position = Shared::new(&mut s.position);
-        let velocity_pred = Shared::new(self.velocity_pred);
-        let angular_velocity_pred = Shared::new(self.angular_velocity_pred);
-        let velocity = Shared::new(&mut s.velocity);
-        let angular_velocity = Shared::new(&mut s.angular_velocity);
-        // SAFETY: written only by fused integrations, each to grains no row reads after it.
-        let g = unsafe {
-            GrainsIn {
-                position: GrainColumn::of_shared(&position),
-                velocity: GrainColumn::of_shared(&velocity_pred),
-                angular_velocity: GrainColumn::of_shared(&angular_velocity_pred),
-                radius: &s.radius,
-                mass: &s.mass,
-                external_force: &s.external_force,
-            }
-        };
-        let x_ref = nl.reference_positions();
-        let track = x_ref.len() == s.radius.len();
-        let first_free = self.first_free;
-        let fused = |c: usize| {
-            self.fuse.map(|kind| FusedKick {
-                kind,
-                first_free: first_free[c],
-                inv_mass: &s.inv_mass,
-                inv_inertia: &s.inv_inertia,
-                velocity: &velocity,
-                angular_velocity: &angular_velocity,
-                position: &position,
-                velocity_pred: &velocity_pred,
-                angular_velocity_pred: &angular_velocity_pred,
-                reference: track.then_some(x_ref),
-            })
+        let g = GrainsIn {
+            position: &s.position,
+            velocity: self.velocity_pred,
+            angular_velocity: self.angular_velocity_pred,
+            radius: &s.radius,
+            mass: &s.mass,
+            external_force: &s.external_force,
         };
         let (start, partner) = (&nl.start[..], &nl.partner[..]);
         let inputs = ForceInputs {
@@ -900,10 +776,7 @@ impl ForceJob<'_> {
                     scratch: &mut scratch.range(c, c + 1)[0],
                 }
             };
-            let kick = fused(c);
-            let verdict = chunk_forces(inputs, out, kick.as_ref());
-            // SAFETY: slot c is this chunk's.
-            unsafe { fused_result.range(c, c + 1)[0] = verdict };
+            chunk_forces(inputs, out);
         });
         // Partner shares across chunk boundaries wait in the spill lists: the integration
         // pass that follows adds them, each chunk its own grains' in parallel. Wall forces
