@@ -6,7 +6,7 @@
 #           (build-essential: the HDF5 and Python bindings build C), the HDF5 C library
 #           (run.h5) and pkg-config, which finds it.
 #   (none)  also what the tests and the benchmark need: LIGGGHTS with its headers and
-#           OpenMPI (reference engine), YADE with Python 3.11's headers (the YADE shim embeds
+#           OpenMPI (reference engine; openmpi-bin's `mpirun` runs it on several ranks), YADE with Python 3.11's headers (the YADE shim embeds
 #           Debian's Python to drive it; ~770 MB), procps (pgrep/kill in the isolation
 #           test), and for Debian's own /usr/bin/python3 h5py (reads run.h5 back), and
 #           ParaView's Python (under pvbatch, VTK's XML readers read the ParaView files back
@@ -20,7 +20,7 @@ set -euo pipefail
 need_rust=$(sed -n 's/^rust-version = "\(.*\)"/\1/p' "$(dirname "$0")/../Cargo.toml")
 pkgs=(build-essential libhdf5-dev pkg-config)
 if [ "${1:-}" != "--base" ]; then
-  pkgs+=(liggghts libliggghts-dev libopenmpi-dev yade python3-yade libpython3.11-dev procps
+  pkgs+=(liggghts libliggghts-dev libopenmpi-dev openmpi-bin yade python3-yade libpython3.11-dev procps
     python3-h5py python3-paraview lammps)
 fi
 missing=()

@@ -38,7 +38,19 @@ enum Command {
 }
 
 fn main() -> ExitCode {
-    cli::finish(match Cli::parse().command {
+    let command = Cli::parse().command;
+    let ranks = plugflow::setup::ranks::launched();
+    if ranks.size > 1 && !matches!(command, Command::Run(_) | Command::Validate(_)) {
+        // sweep, study and crosscheck start runs of their own: start them without mpirun,
+        // or run each variant under mpirun with `plugflow run`.
+        eprintln!(
+            "error: under mpirun ({} ranks) plugflow runs `run` and `validate` only; start \
+             sweep, study and crosscheck without mpirun",
+            ranks.size
+        );
+        return ExitCode::from(2);
+    }
+    cli::finish(match command {
         Command::Run(a) => cli::run::main(a),
         Command::Sweep(a) => cli::sweep::main(a),
         Command::Crosscheck(a) => cli::crosscheck::main(a),

@@ -13,7 +13,17 @@
  *    library with another major; minors only add optional calls (a loader binds optional
  *    calls only when the library exports them).
  *  - Optional calls: pf_dem_set_implicit_drag, pf_dem_flow_get, pf_dem_check (since 1.1),
- *    pf_dem_keep_log (1.2), pf_dem_save_state and pf_dem_restore_state (1.3).
+ *    pf_dem_keep_log (1.2), pf_dem_save_state and pf_dem_restore_state (1.3),
+ *    pf_dem_ranks and pf_dem_all_reduce (1.4).
+ *  - Several processes (ABI 1.4): an engine run under MPI (one plugflow process per rank,
+ *    one engine instance over all of them) reports its rank and rank count with
+ *    pf_dem_ranks; every per-grain call then concerns the grains this rank owns, and
+ *    pf_dem_all_reduce sums (or takes the maximum of) a buffer over all ranks on the
+ *    engine's own communicator, so the caller needs no MPI of its own. Every rank calls
+ *    pf_dem_advance, pf_dem_insert, pf_dem_remove_past_outlet, pf_dem_all_reduce,
+ *    pf_dem_save_state and pf_dem_restore_state in the same order (they are collective);
+ *    an engine that fails in one of them on one rank fails on every rank with that
+ *    rank's message. An engine without these calls is one process (rank 0 of 1).
  */
 #ifndef PLUGFLOW_DEM_H
 #define PLUGFLOW_DEM_H
@@ -26,7 +36,7 @@ extern "C" {
 #endif
 
 #define PF_DEM_ABI_MAJOR 1
-#define PF_DEM_ABI_MINOR 3
+#define PF_DEM_ABI_MINOR 4
 
 /* Status codes (fixed numbers; never renumbered). */
 #define PF_OK 0
@@ -40,6 +50,10 @@ extern "C" {
 #define PF_ERR_UNSUPPORTED 8      /* the engine cannot do what was asked */
 
 typedef int32_t pf_status;
+
+/* Reductions of pf_dem_all_reduce (fixed numbers). */
+#define PF_REDUCE_SUM 0
+#define PF_REDUCE_MAX 1
 
 /* The engine instance. */
 typedef struct pf_dem pf_dem;
@@ -140,6 +154,16 @@ pf_status pf_dem_save_state(pf_dem *dem, const uint8_t **data, size_t *len);
  * feed and counters, its clock). PF_ERR_INVALID_ARGUMENT when the bytes are not such a
  * state. */
 pf_status pf_dem_restore_state(pf_dem *dem, const uint8_t *data, size_t len);
+
+/* Optional (ABI 1.4). This process's rank and the number of ranks the engine runs on
+ * (0 and 1 for an engine in one process). */
+pf_status pf_dem_ranks(const pf_dem *dem, uint32_t *rank, uint32_t *size);
+
+/* Optional (ABI 1.4). Replace data[0..n) on every rank by its sum (op PF_REDUCE_SUM) or
+ * maximum (PF_REDUCE_MAX) over all ranks. Collective: every rank calls it with the same n
+ * and op. For a given rank count the result is the same at every call (a fixed reduction
+ * order), so a run stays reproducible. */
+pf_status pf_dem_all_reduce(const pf_dem *dem, double *data, size_t n, int32_t op);
 
 #ifdef __cplusplus
 }

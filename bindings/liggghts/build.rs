@@ -29,4 +29,6 @@ fn main() {
     }
     b.compile("pfl_shim");
     println!("cargo:rustc-link-lib=dylib=liggghts");
+    // MPI itself for the world calls (shim.cpp); libliggghts already depends on it.
+    println!("cargo:rustc-link-lib=dylib=mpi");
 }

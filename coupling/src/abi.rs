@@ -15,7 +15,7 @@ use crate::{Real, Vec3};
 /// ABI major version: a loader refuses a library with another major.
 pub const ABI_MAJOR: u32 = 1;
 /// ABI minor version: minors only add optional calls.
-pub const ABI_MINOR: u32 = 3;
+pub const ABI_MINOR: u32 = 4;
 /// `abi_version()` of this build: major << 16 | minor.
 pub const ABI_VERSION: u32 = (ABI_MAJOR << 16) | ABI_MINOR;
 
@@ -30,6 +30,12 @@ pub mod status {
     pub const BUFFER_TOO_SMALL: i32 = 6;
     pub const PANIC: i32 = 7;
     pub const UNSUPPORTED: i32 = 8;
+}
+
+/// Reductions of `pf_dem_all_reduce` (fixed numbers).
+pub mod reduce {
+    pub const SUM: i32 = 0;
+    pub const MAX: i32 = 1;
 }
 
 /// Opaque engine instance.
@@ -112,6 +118,8 @@ pub type FlowGetFn = unsafe extern "C" fn(*const PfDem, *mut PfDemFlow) -> i32;
 pub type KeepLogFn = unsafe extern "C" fn(*mut PfDem, *const c_char, usize) -> i32;
 pub type SaveStateFn = unsafe extern "C" fn(*mut PfDem, *mut *const u8, *mut usize) -> i32;
 pub type RestoreStateFn = unsafe extern "C" fn(*mut PfDem, *const u8, usize) -> i32;
+pub type RanksFn = unsafe extern "C" fn(*const PfDem, *mut u32, *mut u32) -> i32;
+pub type AllReduceFn = unsafe extern "C" fn(*const PfDem, *mut f64, usize, i32) -> i32;
 
 /// Every call of the ABI: (symbol, Rust type name of its pointer type, optional).
 /// The header test compares these with the prototypes of plugflow_dem.h.
@@ -156,6 +164,8 @@ pub fn declarations() -> Vec<(&'static str, &'static str, bool)> {
         ("pf_dem_keep_log", type_name::<KeepLogFn>(), true),
         ("pf_dem_save_state", type_name::<SaveStateFn>(), true),
         ("pf_dem_restore_state", type_name::<RestoreStateFn>(), true),
+        ("pf_dem_ranks", type_name::<RanksFn>(), true),
+        ("pf_dem_all_reduce", type_name::<AllReduceFn>(), true),
     ]
 }
 
@@ -198,6 +208,8 @@ struct Calls {
     keep_log: Option<KeepLogFn>,
     save_state: Option<SaveStateFn>,
     restore_state: Option<RestoreStateFn>,
+    ranks: Option<RanksFn>,
+    all_reduce: Option<AllReduceFn>,
 }
 
 /// A DEM engine behind the C ABI, loaded at run time.
@@ -342,6 +354,8 @@ impl AbiBackend {
             keep_log: optional!("pf_dem_keep_log", KeepLogFn),
             save_state: optional!("pf_dem_save_state", SaveStateFn),
             restore_state: optional!("pf_dem_restore_state", RestoreStateFn),
+            ranks: optional!("pf_dem_ranks", RanksFn),
+            all_reduce: optional!("pf_dem_all_reduce", AllReduceFn),
         };
         let mut handle: *mut PfDem = std::ptr::null_mut();
         // SAFETY: the text pointer and length describe `scene_json`; `handle` is writable.
@@ -683,6 +697,35 @@ impl DemBackend for AbiBackend {
         let st = unsafe { f(self.handle, state.as_ptr(), state.len()) };
         self.check(st, "pf_dem_restore_state")?;
         self.refresh()
+    }
+
+    fn ranks(&self) -> crate::backend::Ranks {
+        let Some(f) = self.calls.ranks else {
+            return crate::backend::Ranks::SINGLE;
+        };
+        let (mut rank, mut size) = (0u32, 1u32);
+        // SAFETY: live handle, valid out-pointers.
+        let st = unsafe { f(self.handle, &mut rank, &mut size) };
+        if st != status::OK || size == 0 || rank >= size {
+            return crate::backend::Ranks::SINGLE;
+        }
+        crate::backend::Ranks {
+            rank: rank as usize,
+            size: size as usize,
+        }
+    }
+
+    fn all_reduce(&self, data: &mut [f64], op: crate::backend::Reduce) -> Result<(), BackendError> {
+        let Some(f) = self.calls.all_reduce else {
+            return Ok(()); // one process: the sum over ranks is this rank's
+        };
+        let op = match op {
+            crate::backend::Reduce::Sum => reduce::SUM,
+            crate::backend::Reduce::Max => reduce::MAX,
+        };
+        // SAFETY: live handle; the pointer and length describe `data`.
+        let st = unsafe { f(self.handle, data.as_mut_ptr(), data.len(), op) };
+        self.check(st, "pf_dem_all_reduce")
     }
 
     fn flow(&self) -> Option<crate::backend::GrainFlow> {

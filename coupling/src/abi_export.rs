@@ -504,6 +504,53 @@ macro_rules! export_dem_abi {
                 })
             }
 
+            #[no_mangle]
+            pub unsafe extern "C" fn pf_dem_ranks(
+                dem: *const PfDem,
+                rank: *mut u32,
+                size: *mut u32,
+            ) -> i32 {
+                with_handle(dem, |h| {
+                    if rank.is_null() || size.is_null() {
+                        return Err((status::NULL, "`rank` or `size` is NULL".into()));
+                    }
+                    let r = h.engine.ranks();
+                    *rank = r.rank as u32;
+                    *size = r.size as u32;
+                    Ok(())
+                })
+            }
+
+            #[no_mangle]
+            pub unsafe extern "C" fn pf_dem_all_reduce(
+                dem: *const PfDem,
+                data: *mut f64,
+                n: usize,
+                op: i32,
+            ) -> i32 {
+                with_handle(dem, |h| {
+                    if data.is_null() && n > 0 {
+                        return Err((status::NULL, "`data` is NULL".into()));
+                    }
+                    let op = match op {
+                        abi::reduce::SUM => $crate::Reduce::Sum,
+                        abi::reduce::MAX => $crate::Reduce::Max,
+                        other => {
+                            return Err((
+                                status::INVALID_ARGUMENT,
+                                format!("`op` {other} is neither PF_REDUCE_SUM nor PF_REDUCE_MAX"),
+                            ))
+                        }
+                    };
+                    if n == 0 {
+                        return h.engine.all_reduce(&mut [], op).map_err(backend_failure);
+                    }
+                    // SAFETY: the caller passes n writable doubles.
+                    let data = std::slice::from_raw_parts_mut(data, n);
+                    h.engine.all_reduce(data, op).map_err(backend_failure)
+                })
+            }
+
             /// The exports have exactly the loader's pointer types.
             const _: () = {
                 let _: abi::AbiVersionFn = pf_dem_abi_version;
@@ -523,6 +570,8 @@ macro_rules! export_dem_abi {
                 let _: abi::SaveStateFn = pf_dem_save_state;
                 let _: abi::RestoreStateFn = pf_dem_restore_state;
                 let _: abi::CheckFn = pf_dem_check;
+                let _: abi::RanksFn = pf_dem_ranks;
+                let _: abi::AllReduceFn = pf_dem_all_reduce;
             };
         }
     };

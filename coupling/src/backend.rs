@@ -84,6 +84,32 @@ pub struct GrainFlow {
     pub lost_count: u64,
 }
 
+/// Where this process stands among the processes one engine runs on (MPI ranks).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Ranks {
+    /// This process's rank, 0-based.
+    pub rank: usize,
+    /// Number of ranks (1: an engine in one process).
+    pub size: usize,
+}
+
+impl Ranks {
+    /// One process.
+    pub const SINGLE: Ranks = Ranks { rank: 0, size: 1 };
+
+    /// The rank that writes the run's files.
+    pub fn leads(&self) -> bool {
+        self.rank == 0
+    }
+}
+
+/// A reduction over all ranks ([`DemBackend::all_reduce`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Reduce {
+    Sum,
+    Max,
+}
+
 /// Errors a backend reports to the driver; each names where it happened.
 #[derive(Debug, thiserror::Error)]
 pub enum BackendError {
@@ -183,6 +209,19 @@ pub trait DemBackend {
                       `--resume`"
                 .to_string(),
         })
+    }
+    /// The ranks this engine runs on: an engine under MPI (LIGGGHTS launched by `mpirun`)
+    /// owns a share of the grains in each process, and [`DemBackend::particles`],
+    /// `set_fluid_forces`, `wall_forces` are that rank's. One process by default.
+    fn ranks(&self) -> Ranks {
+        Ranks::SINGLE
+    }
+    /// Replace `data` on every rank by its sum or maximum over all ranks, on the engine's
+    /// own communicator (collective: every rank calls it with the same length). The
+    /// coupler needs no MPI: the gas is replicated on every rank and only its deposited
+    /// node fields travel. A no-op for an engine in one process.
+    fn all_reduce(&self, _data: &mut [f64], _op: Reduce) -> Result<(), BackendError> {
+        Ok(())
     }
     /// Take back a state [`DemBackend::save_state`] wrote (an engine built from the same
     /// scene); refused, naming why, when the bytes are not such a state.

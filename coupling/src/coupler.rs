@@ -21,7 +21,8 @@ use crate::grid::{
 };
 use crate::team::{share, Shared, Team};
 use crate::{
-    BackendError, DemBackend, DragLaw, GasError, GasSolver, GrainInFluid, Real, StageTimer, Vec3,
+    BackendError, DemBackend, DragLaw, GasError, GasSolver, GrainInFluid, Real, Reduce, StageTimer,
+    Vec3,
 };
 use std::sync::Arc;
 
@@ -68,6 +69,9 @@ pub enum ExchangeError {
         porosity: Real,
         gradient: Vec3,
     },
+    /// Another rank of an engine under MPI failed in this exchange (its own words).
+    #[error("rank {rank} of the engine failed: {message}")]
+    OtherRank { rank: usize, message: String },
 }
 
 /// What stopped a coupled advance, with the simulated time it stopped at.
@@ -139,6 +143,8 @@ pub struct Coupler {
     forces: Vec<Vec3>,
     /// Scratch of the deposit: each member's node sums.
     sums: Vec<NodeSums>,
+    /// Scratch of the deposit under MPI: the node sums in one buffer for the reduction.
+    reduce_buffer: Vec<f64>,
     /// Scratch of the interpolation: each member's first grain whose drag is not finite.
     bad: Vec<Option<usize>>,
     /// Grains with ids from this one on are new since the last exchange (None before the
@@ -171,6 +177,7 @@ impl Coupler {
             exchanges: 0,
             forces: Vec::new(),
             sums: Vec::new(),
+            reduce_buffer: Vec::new(),
             bad: Vec::new(),
             first_new_id: None,
         }
@@ -234,12 +241,23 @@ impl Coupler {
     /// One exchange after the DEM has advanced `span` seconds: the stages of the step.
     fn exchange_over(&mut self, dem: &mut dyn DemBackend, span: Real) -> Result<(), ExchangeError> {
         let t = std::time::Instant::now();
-        self.deposit(dem);
+        self.deposit(dem)?;
         self.timer
             .add(Stage::Deposit.name(), t.elapsed().as_secs_f64());
         self.gas_step(span)?;
         let t = std::time::Instant::now();
-        self.interpolate_drag(dem)?;
+        let drag = self.interpolate_drag(dem);
+        if dem.ranks().size > 1 {
+            // A rank whose drag failed stops every rank here, with its words.
+            let mine = drag.as_ref().err().map(|e| e.to_string());
+            if let Some((rank, message)) = crate::ranks::first_failure(dem, mine.as_deref())? {
+                return Err(match drag {
+                    Err(e) => e,
+                    Ok(()) => ExchangeError::OtherRank { rank, message },
+                });
+            }
+        }
+        drag?;
         self.timer
             .add(Stage::InterpolateDrag.name(), t.elapsed().as_secs_f64());
         let t = std::time::Instant::now();
@@ -250,8 +268,11 @@ impl Coupler {
     }
 
     /// Deposit: solid fraction and granular velocity on the nodes, and the volume of the
-    /// grains fed since the last exchange (their gas enters with them).
-    fn deposit(&mut self, dem: &dyn DemBackend) {
+    /// grains fed since the last exchange (their gas enters with them). Under MPI each
+    /// rank deposits its own grains and the node sums are added over the ranks (one
+    /// reduction of 5 values per node): every rank then steps the same gas.
+    fn deposit(&mut self, dem: &dyn DemBackend) -> Result<(), ExchangeError> {
+        let ranks = dem.ranks();
         let grid: &TubeGrid = self.gas.grid();
         let p = dem.particles();
         let (x, v, r) = (p.position, p.velocity, p.radius);
@@ -274,11 +295,22 @@ impl Coupler {
             }
             _ => deposit_part(grid, x, v, r, &mut self.fields.stencils, &mut self.sums[0]),
         }
+        let members = match ranks.size {
+            1 => members,
+            _ => {
+                sum_over_ranks(dem, &mut self.sums[..members], &mut self.reduce_buffer)?;
+                1
+            }
+        };
         finish_deposit(grid, &self.sums[..members], &mut self.fields);
         // The grains fed since the last exchange, on the nodes (their stencils are the
         // deposit's).
         let fed = &mut self.fields.fed_solid;
         fed.clear();
+        if ranks.size > 1 && self.first_new_id.is_some() {
+            // Every rank holds the same node list (a rank may have fed none).
+            fed.resize(grid.len(), 0.0);
+        }
         if let Some(first_new) = self.first_new_id {
             for (i, st) in self.fields.stencils.iter().enumerate() {
                 let (Some(st), true) = (st, p.id[i] >= first_new) else {
@@ -292,12 +324,23 @@ impl Coupler {
                     fed[st.node[k] as usize] += v * st.weight[k];
                 }
             }
+            if ranks.size > 1 {
+                dem.all_reduce(fed, Reduce::Sum)?;
+            }
             for (f, vol) in fed.iter_mut().zip(&grid.volume) {
                 *f /= vol.max(1e-300);
             }
         }
         let floor = self.first_new_id.unwrap_or(0);
-        self.first_new_id = Some(p.id.iter().map(|&id| id + 1).fold(floor, u64::max));
+        let mut next = p.id.iter().map(|&id| id + 1).fold(floor, u64::max);
+        if ranks.size > 1 {
+            // (Ids below 2⁵³ pass through an f64 exactly.)
+            let mut m = [next as f64];
+            dem.all_reduce(&mut m, Reduce::Max)?;
+            next = m[0] as u64;
+        }
+        self.first_new_id = Some(next);
+        Ok(())
     }
 
     /// The gas over `span` seconds, with its step-doubling error estimate every
@@ -451,6 +494,37 @@ impl Coupler {
 
 /// Members of the engine's team worth using for `n` grains (1: no team, or too few grains
 /// for the sync to pay).
+/// Add the members' node sums and then the ranks' into `sums[0]` (members in member
+/// order, ranks in the reduction's fixed order: reproducible for a rank and thread count).
+fn sum_over_ranks(
+    dem: &dyn DemBackend,
+    sums: &mut [NodeSums],
+    buffer: &mut Vec<f64>,
+) -> Result<(), BackendError> {
+    let n = sums[0].solid.len();
+    buffer.clear();
+    buffer.resize(4 * n, 0.0);
+    for part in sums.iter() {
+        for j in 0..n {
+            buffer[j] += part.solid[j];
+            for k in 0..3 {
+                buffer[n + 3 * j + k] += part.momentum[j][k];
+            }
+        }
+    }
+    dem.all_reduce(buffer, Reduce::Sum)?;
+    let first = &mut sums[0];
+    first.solid.copy_from_slice(&buffer[..n]);
+    for (j, m) in first.momentum.iter_mut().enumerate() {
+        *m = [
+            buffer[n + 3 * j],
+            buffer[n + 3 * j + 1],
+            buffer[n + 3 * j + 2],
+        ];
+    }
+    Ok(())
+}
+
 fn members_for(team: Option<&Team>, n: usize) -> usize {
     /// Fewest grains per member worth a share of their own.
     const MIN_GRAINS_PER_MEMBER: usize = 512;

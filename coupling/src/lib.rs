@@ -18,11 +18,13 @@ pub mod fluid_force;
 pub mod gas;
 pub mod grid;
 pub mod isolated;
+pub mod ranks;
 pub mod team;
 pub mod timing;
 
 pub use backend::{
-    BackendError, DemBackend, GrainFlow, ImplicitDrag, NewParticle, ParticleView, WallForce,
+    BackendError, DemBackend, GrainFlow, ImplicitDrag, NewParticle, ParticleView, Ranks, Reduce,
+    WallForce,
 };
 pub use checks::{CouplingCheck, Verdict};
 pub use coupler::{Coupler, CouplerState, CouplingStats, ExchangeError, Stage, StepError};

@@ -67,6 +67,9 @@ pub struct Summary {
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub feed_backlog_grains: Option<i64>,
     pub threads: usize,
+    /// MPI ranks the engine ran on (LIGGGHTS under `mpirun`; 1 for one process).
+    #[serde(default = "one_rank")]
+    pub ranks: usize,
     /// Mean force of the grains on each wall the engine reports, after the settling time, N
     /// (absent: no sample in the window, or an engine without wall forces).
     #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
@@ -355,6 +358,7 @@ pub fn test_summary(status: &str, wall_time_s: Real, pressure_drop: Option<Real>
         grains_asked: None,
         feed_backlog_grains: None,
         threads: 1,
+        ranks: 1,
         wall_forces_mean_n: BTreeMap::new(),
         tube_wall_force_mean_n: None,
         accuracy: Accuracy {
@@ -516,4 +520,9 @@ pub struct SlugSummary {
     pub gas_mean_superficial_velocity_m_s: Option<MeanStd>,
     /// Lavrinec et al. (2020): 0.967 ū_p + 0.5 √(g D), from the grains' mean speed, m/s.
     pub lavrinec_slug_velocity_m_s: Option<Real>,
+}
+
+/// A summary written before runs on several ranks existed ran on one.
+fn one_rank() -> usize {
+    1
 }

@@ -69,7 +69,10 @@ pub fn main(a: RunArgs) -> ExitCode {
     }
     match run(&s, &opts) {
         Ok(outcome) => {
-            print_outcome(&outcome.summary, &outcome.out_dir);
+            // (Under MPI rank 0 speaks for the run.)
+            if plugflow::setup::ranks::launched().leads() {
+                print_outcome(&outcome.summary, &outcome.out_dir);
+            }
             ExitCode::SUCCESS
         }
         Err(RunError::Scene(e)) => {

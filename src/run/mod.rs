@@ -5,6 +5,7 @@
 //! then. No physics lives here.
 
 pub mod checkpoint;
+mod gathered;
 mod report;
 mod run_log;
 mod sampling;
@@ -96,16 +97,24 @@ pub fn run(scene: &Scene, opts: &RunOptions) -> Result<RunOutcome, RunError> {
         .clone()
         .or_else(|| beginning.resumed_run_dir())
         .unwrap_or_else(|| scene.default_output_dir());
-    std::fs::create_dir_all(&out_dir).map_err(|source| RunError::Io {
-        path: out_dir.display().to_string(),
-        source,
-    })?;
-    if !beginning.resumes() {
-        clear_previous_outputs(&out_dir)?;
-    }
-    // A disk too full for the run's end is said before the run starts.
-    crate::output::room::RoomGuard::new(&out_dir.join("run.h5")).check()?;
-    let mut log = RunLog::create(&out_dir, opts.progress, beginning.resumes())?;
+    // Under MPI (LIGGGHTS on several ranks) rank 0 alone writes the run's files; every
+    // rank steps, samples and decides alike.
+    let lead = setup::ranks::launched().leads();
+    let mut log = match lead {
+        true => {
+            std::fs::create_dir_all(&out_dir).map_err(|source| RunError::Io {
+                path: out_dir.display().to_string(),
+                source,
+            })?;
+            if !beginning.resumes() {
+                clear_previous_outputs(&out_dir)?;
+            }
+            // A disk too full for the run's end is said before the run starts.
+            crate::output::room::RoomGuard::new(&out_dir.join("run.h5")).check()?;
+            RunLog::create(&out_dir, opts.progress, beginning.resumes())?
+        }
+        false => RunLog::silent(),
+    };
     log.line(&format!(
         "plugflow {}: scene `{}`",
         env!("CARGO_PKG_VERSION"),
@@ -118,7 +127,11 @@ pub fn run(scene: &Scene, opts: &RunOptions) -> Result<RunOutcome, RunError> {
     } = setup::build(scene, beginning.takes_grains())
         .inspect_err(|e| log.line(&format!("error: {e}")))?;
     // The engine's own log (LIGGGHTS's) is kept beside plugflow's.
-    if let Err(e) = dem.keep_log(&out_dir) {
+    let ranks = dem.ranks();
+    // The grains of all ranks, gathered at each sample (None: one process, read directly).
+    let mut gathered = (ranks.size > 1).then(gathered::Gathered::default);
+    if !lead {
+    } else if let Err(e) = dem.keep_log(&out_dir) {
         log.line(&format!(
             "warning: the engine's own log cannot be kept: {e}"
         ));
@@ -134,9 +147,13 @@ pub fn run(scene: &Scene, opts: &RunOptions) -> Result<RunOutcome, RunError> {
     let total_steps = (duration / dt).round().max(1.0) as u64;
     let mut per_sample = ((f.output.sample_interval.si / dt).round() as u64).max(1);
     log.line(&format!(
-        "engine {} {}, dt {dt:e} s, {total_steps} steps for {duration} s simulated",
+        "engine {} {}, dt {dt:e} s, {total_steps} steps for {duration} s simulated{}",
         dem.engine_name(),
-        dem.engine_version()
+        dem.engine_version(),
+        match ranks.size {
+            1 => String::new(),
+            n => format!(", on {n} MPI ranks"),
+        }
     ));
     if let Some(g) = &gas {
         // Sample on coupling boundaries.
@@ -154,13 +171,13 @@ pub fn run(scene: &Scene, opts: &RunOptions) -> Result<RunOutcome, RunError> {
                     format!(" — {}", c.advice)
                 }
             );
-            if opts.progress {
+            if opts.progress && lead {
                 eprintln!("{text}");
             }
             log.line(&text);
         }
     }
-    let bar = RunLog::wants_bar(opts.progress).then(|| progress_bar(total_steps));
+    let bar = (lead && RunLog::wants_bar(opts.progress)).then(|| progress_bar(total_steps));
     let wall = Instant::now();
     let start = dem.time();
     let snapshot_spec = f.output.snapshots.as_ref();
@@ -177,7 +194,9 @@ pub fn run(scene: &Scene, opts: &RunOptions) -> Result<RunOutcome, RunError> {
         tube_axis: cfg.tube.map(|t| t.axis),
     };
     let (h5, csv) = (out_dir.join("run.h5"), out_dir.join("timeseries.csv"));
-    if at.steps_done == 0 {
+    if !lead {
+        // (Rank 0 writes them.)
+    } else if at.steps_done == 0 {
         outputs.push(Box::new(Hdf5Output::create(&h5, &meta)?));
         outputs.push(Box::new(CsvOutput::create(
             &csv,
@@ -248,7 +267,7 @@ pub fn run(scene: &Scene, opts: &RunOptions) -> Result<RunOutcome, RunError> {
         let mut left = n;
         let mut stepped = Ok(());
         while left > 0 && stepped.is_ok() {
-            if INTERRUPT.load(std::sync::atomic::Ordering::Relaxed) {
+            if interrupted(dem.as_ref()) {
                 break;
             }
             let k = piece.min(left);
@@ -269,14 +288,15 @@ pub fn run(scene: &Scene, opts: &RunOptions) -> Result<RunOutcome, RunError> {
         // stopped, and the check below ends the run.)
         at.steps_done += n - left;
         let snapshot_due = samples_per_snapshot.is_some_and(|k| at.samples_taken.is_multiple_of(k));
-        let seen = match sampling.sample(
-            &cfg,
-            dem.as_ref(),
-            gas.as_ref(),
-            dt,
-            &mut outputs,
-            snapshot_due,
-        ) {
+        let view = match viewed(dem.as_ref(), gathered.as_mut()) {
+            Ok(v) => v,
+            Err(source) => {
+                let time = dem.time();
+                failure = Some(RunError::Step(StepError::Backend { time, source }));
+                break;
+            }
+        };
+        let seen = match sampling.sample(&cfg, view, gas.as_ref(), dt, &mut outputs, snapshot_due) {
             Ok(seen) => seen,
             Err(e) => {
                 failure = Some(RunError::Output(e));
@@ -307,7 +327,7 @@ pub fn run(scene: &Scene, opts: &RunOptions) -> Result<RunOutcome, RunError> {
             },
             at.samples_taken == 1,
         );
-        if INTERRUPT.load(std::sync::atomic::Ordering::Relaxed) {
+        if interrupted(dem.as_ref()) {
             failure = Some(RunError::Interrupted { time: dem.time() });
             break;
         }
@@ -365,10 +385,23 @@ pub fn run(scene: &Scene, opts: &RunOptions) -> Result<RunOutcome, RunError> {
     // failed before (a full disk: whatever still fits is written), the summary last so that
     // its status names the first failure.
     let mut end_errors: Vec<RunError> = Vec::new();
-    if let Err(e) = write_figures(
+    // (Under MPI the grains of every rank once more, for the summary: every rank stopped
+    // at the same call, so every rank takes part.)
+    let view = match viewed(dem.as_ref(), gathered.as_mut()) {
+        Ok(v) => v,
+        Err(e) => {
+            end_errors.push(RunError::Step(StepError::Backend {
+                time: dem.time(),
+                source: e,
+            }));
+            dem.as_ref()
+        }
+    };
+    if !lead {
+    } else if let Err(e) = write_figures(
         &out_dir,
         &cfg,
-        dem.as_ref(),
+        view,
         gas.as_ref(),
         &sampling,
         profiles.as_ref(),
@@ -399,7 +432,7 @@ pub fn run(scene: &Scene, opts: &RunOptions) -> Result<RunOutcome, RunError> {
     let summary = summarize(&Ending {
         scene,
         cfg: &cfg,
-        dem: dem.as_ref(),
+        dem: view,
         gas: gas.as_ref(),
         sampling: &sampling,
         profiles: profiles.as_ref(),
@@ -410,7 +443,8 @@ pub fn run(scene: &Scene, opts: &RunOptions) -> Result<RunOutcome, RunError> {
         },
         wall_time: at.wall_before + wall.elapsed().as_secs_f64(),
     });
-    if let Err(e) = write_summary(&out_dir.join("summary.json"), &summary) {
+    if !lead {
+    } else if let Err(e) = write_summary(&out_dir.join("summary.json"), &summary) {
         end_errors.push(e);
     }
     for w in &summary.warnings {
@@ -440,6 +474,35 @@ pub fn run(scene: &Scene, opts: &RunOptions) -> Result<RunOutcome, RunError> {
             None => Ok(RunOutcome { summary, out_dir }),
         },
     }
+}
+
+/// What a sample reads: the engine itself in one process; under MPI the grains of every
+/// rank gathered (collective: every rank calls it at the same place).
+fn viewed<'a>(
+    dem: &'a dyn plugflow_coupling::DemBackend,
+    gathered: Option<&'a mut gathered::Gathered>,
+) -> Result<&'a dyn plugflow_coupling::DemBackend, plugflow_coupling::BackendError> {
+    match gathered {
+        None => Ok(dem),
+        Some(g) => {
+            g.refresh(dem)?;
+            Ok(g)
+        }
+    }
+}
+
+/// Whether the run was asked to stop (Ctrl-C, SIGTERM). Under MPI the ranks agree (any
+/// rank asked: all stop at the same place), so none waits in a collective for a rank
+/// that left.
+fn interrupted(dem: &dyn plugflow_coupling::DemBackend) -> bool {
+    let mine = INTERRUPT.load(std::sync::atomic::Ordering::Relaxed);
+    if dem.ranks().size == 1 {
+        return mine;
+    }
+    let mut flag = [mine as u8 as f64];
+    // (A reduction that fails leaves this rank's own answer.)
+    let _ = dem.all_reduce(&mut flag, plugflow_coupling::Reduce::Max);
+    flag[0] > 0.0
 }
 
 fn progress_bar(total_steps: u64) -> indicatif::ProgressBar {

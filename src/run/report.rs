@@ -167,6 +167,7 @@ pub fn summarize(e: &Ending) -> Summary {
         grains_asked: feed.map(|(asked, _)| asked),
         feed_backlog_grains: feed.map(|(_, owed)| owed),
         threads: cfg.threads,
+        ranks: dem.ranks().size,
         wall_forces_mean_n: wall_means.iter().cloned().collect(),
         tube_wall_force_mean_n: cfg.tube.and_then(|t| {
             let (_, f) = wall_means.iter().find(|(w, _)| w == "tube")?;

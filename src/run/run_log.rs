@@ -16,7 +16,8 @@ const PROGRESS_EVERY: Duration = Duration::from_secs(5);
 /// (a terminal gets the progress bar instead).
 pub struct RunLog {
     path: String,
-    file: File,
+    /// None on a rank other than 0 of a run under MPI (rank 0 keeps the log).
+    file: Option<File>,
     /// Progress lines go to stderr as well (asked for, and stderr is not a terminal).
     plain_progress: bool,
     last_progress: Option<Instant>,
@@ -41,12 +42,24 @@ impl RunLog {
             .map_err(|e| OutputError::new(&shown, e))?;
         Ok(Self {
             path: shown,
-            file,
+            file: Some(file),
             plain_progress: progress && !std::io::stderr().is_terminal(),
             last_progress: None,
             last_at: None,
             failed: None,
         })
+    }
+
+    /// The log of a rank other than 0 under MPI: says nothing (rank 0 says it all).
+    pub fn silent() -> Self {
+        Self {
+            path: String::new(),
+            file: None,
+            plain_progress: false,
+            last_progress: None,
+            last_at: None,
+            failed: None,
+        }
     }
 
     /// Whether the terminal shows a progress bar (progress asked for, stderr a terminal).
@@ -56,10 +69,10 @@ impl RunLog {
 
     /// One line into the log.
     pub fn line(&mut self, text: &str) {
-        if self.failed.is_some() {
+        let Some(file) = self.file.as_mut().filter(|_| self.failed.is_none()) else {
             return;
-        }
-        if let Err(e) = writeln!(self.file, "{text}").and_then(|_| self.file.flush()) {
+        };
+        if let Err(e) = writeln!(file, "{text}").and_then(|_| file.flush()) {
             self.failed = Some(OutputError::new(&self.path, e));
         }
     }

@@ -11,6 +11,7 @@
 
 pub mod coupling;
 pub mod engine;
+pub mod ranks;
 
 pub use coupling::{check_row, coupling_checks, coupling_from_scene};
 pub use engine::{build_backend, check_engine};
@@ -46,6 +47,7 @@ pub fn prepare(scene: &Scene) -> Result<Prepared, SceneError> {
 /// Everything `plugflow validate` checks: the scene's own checks (done by loading it), the
 /// configuration, the coupling checks, and the chosen engine's refusals.
 pub fn validate(scene: &Scene) -> Result<Prepared, SceneError> {
+    ranks::check_ranks(scene, ranks::launched())?;
     let prepared = prepare(scene)?;
     check_engine(scene, &prepared.config)?;
     Ok(prepared)
@@ -62,7 +64,26 @@ pub fn build(scene: &Scene, restoring: bool) -> Result<Setup, SceneError> {
     if restoring {
         config.settle = None;
     }
+    let launched = ranks::launched();
+    ranks::check_ranks(scene, launched)?;
     let engine = build_backend(scene, &config)?;
+    if engine.ranks() != launched {
+        let r = engine.ranks();
+        return Err(SceneError::field(
+            "dem.engine",
+            format!(
+                "mpirun started rank {} of {}, the engine runs as rank {} of {}: {}",
+                launched.rank,
+                launched.size,
+                r.rank,
+                r.size,
+                match launched.size > r.size {
+                    true => "it was built without MPI (rebuild the LIGGGHTS shim)",
+                    false => "the launcher's environment and the engine's MPI disagree",
+                }
+            ),
+        ));
+    }
     Ok(Setup {
         config,
         engine,

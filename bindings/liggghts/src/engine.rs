@@ -7,7 +7,8 @@ use std::sync::Mutex;
 
 use plugflow_coupling::abi::PfDemFlow;
 use plugflow_coupling::{
-    BackendError, DemBackend, GrainFlow, ImplicitDrag, NewParticle, ParticleView, WallForce,
+    BackendError, DemBackend, GrainFlow, ImplicitDrag, NewParticle, ParticleView, Ranks, Reduce,
+    WallForce,
 };
 use plugflow_model::dem::{DemConfig, NativeDem};
 use plugflow_model::scene::Scene;
@@ -23,6 +24,16 @@ extern "C" {
         len: usize,
     ) -> c_int;
     fn pfl_close(lmp: *mut c_void, err: *mut c_char, len: usize) -> c_int;
+    fn pfl_world(rank: *mut c_int, size: *mut c_int, err: *mut c_char, len: usize) -> c_int;
+    fn pfl_open_world(
+        log: *const c_char,
+        screen: *const c_char,
+        out: *mut *mut c_void,
+        err: *mut c_char,
+        len: usize,
+    ) -> c_int;
+    fn pfl_all_reduce(data: *mut f64, n: usize, op: c_int, err: *mut c_char, len: usize) -> c_int;
+    fn pfl_finalize(err: *mut c_char, len: usize) -> c_int;
     fn pfl_command(lmp: *mut c_void, cmd: *const c_char, err: *mut c_char, len: usize) -> c_int;
     fn pfl_extract_atom(
         lmp: *mut c_void,
@@ -54,9 +65,22 @@ static OPEN_CLOSE: Mutex<()> = Mutex::new(());
 /// An error of a LIGGGHTS call.
 pub type EngineError = String;
 
+/// Whether this process was started by an MPI launcher (`mpirun`): LIGGGHTS then runs
+/// over MPI_COMM_WORLD, one instance across all ranks, each owning the grains of its
+/// subdomain (OpenMPI sets OMPI_COMM_WORLD_SIZE, MPICH and Slurm PMI_SIZE).
+pub fn launched_by_mpirun() -> bool {
+    ["OMPI_COMM_WORLD_SIZE", "PMI_SIZE"]
+        .iter()
+        .any(|k| std::env::var_os(k).is_some())
+}
+
 /// A LIGGGHTS instance with the scene mapped into it.
 pub struct Liggghts {
     lmp: *mut c_void,
+    /// The ranks LIGGGHTS runs on (one process unless launched by `mpirun`).
+    ranks: Ranks,
+    /// Over MPI_COMM_WORLD (launched by `mpirun`, any rank count, 1 included).
+    world: bool,
     pub mapped: Mapped,
     pub cfg: DemConfig,
     pub time: f64,
@@ -132,9 +156,12 @@ impl Liggghts {
                 return Err(format!("field `dem.liggghts_input`: {e}"));
             }
         }
-        let lmp = Self::open(&workdir)?;
+        let world = launched_by_mpirun();
+        let (lmp, ranks) = Self::open(&workdir, world)?;
         let mut me = Self {
             lmp,
+            ranks,
+            world,
             mapped,
             cfg,
             time: 0.0,
@@ -198,24 +225,116 @@ impl Liggghts {
             .unwrap_or_else(|| "unknown version (no banner in LIGGGHTS's output)".into());
         // LIGGGHTS refuses to set up a granular run before it knows a grain type: with
         // no grains and no inlet, setup waits for the first inserted grain.
-        if !self.ids.is_empty() || self.feeds {
+        if self.global_count()? > 0 || self.feeds {
             self.command("run 0")?;
             self.needs_setup = false;
         }
         Ok(())
     }
 
-    /// Open a LIGGGHTS instance writing its log and screen output into the working folder.
-    fn open(workdir: &std::path::Path) -> Result<*mut c_void, EngineError> {
+    /// Open a LIGGGHTS instance writing its log and screen output into the working folder:
+    /// in this process alone, or over MPI_COMM_WORLD (`world`).
+    fn open(workdir: &std::path::Path, world: bool) -> Result<(*mut c_void, Ranks), EngineError> {
         let log = CString::new(workdir.join("log.liggghts").display().to_string())
             .map_err(|e| e.to_string())?;
         let screen = CString::new(workdir.join("screen.liggghts").display().to_string())
             .map_err(|e| e.to_string())?;
         let mut lmp = std::ptr::null_mut();
         let _g = OPEN_CLOSE.lock().unwrap_or_else(|p| p.into_inner());
-        // SAFETY: valid C strings and out-pointer.
-        call(|e, l| unsafe { pfl_open(log.as_ptr(), screen.as_ptr(), &mut lmp, e, l) })?;
-        Ok(lmp)
+        if !world {
+            // SAFETY: valid C strings and out-pointer.
+            call(|e, l| unsafe { pfl_open(log.as_ptr(), screen.as_ptr(), &mut lmp, e, l) })?;
+            return Ok((lmp, Ranks::SINGLE));
+        }
+        let (mut rank, mut size) = (0 as c_int, 0 as c_int);
+        // SAFETY: valid out-pointers.
+        call(|e, l| unsafe { pfl_world(&mut rank, &mut size, e, l) })?;
+        // SAFETY: valid C strings and out-pointer; every rank opens together.
+        call(|e, l| unsafe { pfl_open_world(log.as_ptr(), screen.as_ptr(), &mut lmp, e, l) })?;
+        Ok((
+            lmp,
+            Ranks {
+                rank: rank as usize,
+                size: size as usize,
+            },
+        ))
+    }
+
+    /// `data` summed (or its maximum taken) over the ranks; nothing to do on one.
+    pub fn reduce(&self, data: &mut [f64], op: Reduce) -> Result<(), EngineError> {
+        if !self.world || data.is_empty() {
+            return Ok(());
+        }
+        let op = match op {
+            Reduce::Sum => 0,
+            Reduce::Max => 1,
+        };
+        // SAFETY: the pointer and length describe `data`; every rank calls together.
+        call(|e, l| unsafe { pfl_all_reduce(data.as_mut_ptr(), data.len(), op, e, l) })
+    }
+
+    /// Grains over all ranks.
+    fn global_count(&self) -> Result<usize, EngineError> {
+        let mut n = [self.ids.len() as f64];
+        self.reduce(&mut n, Reduce::Sum)?;
+        Ok(n[0] as usize)
+    }
+
+    /// The largest grain id over all ranks (0 with none).
+    fn global_max_id(&self) -> Result<u64, EngineError> {
+        let mut m = [self.ids.iter().copied().max().unwrap_or(0) as f64];
+        self.reduce(&mut m, Reduce::Max)?;
+        Ok(m[0] as u64)
+    }
+
+    /// Every rank's `local` ids, on every rank (a gather through the sum reduction).
+    fn gather_ids(&self, local: &[u64]) -> Result<Vec<u64>, EngineError> {
+        if !self.world {
+            return Ok(local.to_vec());
+        }
+        let mut counts = vec![0.0; self.ranks.size];
+        counts[self.ranks.rank] = local.len() as f64;
+        self.reduce(&mut counts, Reduce::Sum)?;
+        let offset: usize = counts[..self.ranks.rank].iter().map(|&c| c as usize).sum();
+        let total: usize = counts.iter().map(|&c| c as usize).sum();
+        let mut all = vec![0.0; total];
+        for (a, &id) in all[offset..].iter_mut().zip(local) {
+            *a = id as f64;
+        }
+        self.reduce(&mut all, Reduce::Sum)?;
+        Ok(all.into_iter().map(|v| v as u64).collect())
+    }
+
+    /// Under MPI a failure on one rank is every rank's (the healthy ones would wait in the
+    /// next collective call for ever): the first failing rank's words, on all.
+    fn agreed<T>(&self, local: Result<T, EngineError>) -> Result<T, EngineError> {
+        if !self.world || self.ranks.size == 1 {
+            return local;
+        }
+        let mut failed = vec![0.0; self.ranks.size];
+        failed[self.ranks.rank] = local.is_err() as u8 as f64;
+        self.reduce(&mut failed, Reduce::Sum)?;
+        let Some(first) = failed.iter().position(|&f| f > 0.0) else {
+            return local;
+        };
+        let mut text = vec![0.0; 1024];
+        if let (true, Err(m)) = (first == self.ranks.rank, &local) {
+            for (t, &b) in text.iter_mut().zip(m.as_bytes()) {
+                *t = b as f64;
+            }
+        }
+        self.reduce(&mut text, Reduce::Sum)?;
+        match local {
+            Err(m) if first == self.ranks.rank => Err(m),
+            _ => {
+                let bytes: Vec<u8> = text
+                    .iter()
+                    .map(|&b| b as u8)
+                    .take_while(|&b| b != 0)
+                    .collect();
+                Err(format!("rank {first}: {}", String::from_utf8_lossy(&bytes)))
+            }
+        }
     }
 
     /// Close the instance (once: the handle is nulled).
@@ -227,6 +346,12 @@ impl Liggghts {
         // SAFETY: a live instance, closed once.
         let _ = call(|e, l| unsafe { pfl_close(self.lmp, e, l) });
         self.lmp = std::ptr::null_mut();
+        if self.world {
+            // One instance per process under a launcher: MPI ends with it (a process
+            // that exits without MPI_Finalize makes mpirun report the job as failed).
+            // SAFETY: every rank closes together.
+            let _ = call(|e, l| unsafe { pfl_finalize(e, l) });
+        }
     }
 
     /// The state between two advances (see [`SavedState`]): LIGGGHTS's own restart file
@@ -235,6 +360,7 @@ impl Liggghts {
     /// plugflow's mirrors of it.
     pub fn save(&mut self) -> Result<Vec<u8>, EngineError> {
         self.refuse_user_input()?;
+        self.refuse_ranks()?;
         let path = self.workdir.join("checkpoint.restart");
         self.command(&format!("write_restart {}", path.display()))?;
         let restart = std::fs::read(&path).map_err(|e| format!("{}: {e}", path.display()))?;
@@ -259,6 +385,7 @@ impl Liggghts {
     /// data) follow as in a new run.
     pub fn restore(&mut self, bytes: &[u8]) -> Result<(), EngineError> {
         self.refuse_user_input()?;
+        self.refuse_ranks()?;
         let st = SavedState::decode(bytes)?;
         let path = self.workdir.join("resume.restart");
         std::fs::write(&path, &st.restart).map_err(|e| format!("{}: {e}", path.display()))?;
@@ -287,6 +414,19 @@ impl Liggghts {
                         own `write_restart` in the input, or the scene's mapping"
                     .into(),
             );
+        }
+        Ok(())
+    }
+
+    /// A checkpoint holds plugflow's mirrors of one process's grains (which ids were
+    /// seen, inserted): not written under more than one rank yet.
+    fn refuse_ranks(&self) -> Result<(), EngineError> {
+        if self.ranks.size > 1 {
+            return Err(format!(
+                "field `output.checkpoint_interval`: checkpoints of LIGGGHTS under MPI \
+                 ({} ranks) are not supported yet; run on one rank to write them",
+                self.ranks.size
+            ));
         }
         Ok(())
     }
@@ -355,7 +495,11 @@ impl Liggghts {
             self.omega.clear();
             self.radius.clear();
             self.mass.clear();
-            return Ok(0);
+            // (Under MPI the counting below is collective: a rank without grains joins.)
+            return match self.world {
+                true => self.count_fed_over_ranks(),
+                false => Ok(0),
+            };
         }
         let tag = self.atom_ptr("id")? as *const c_int;
         let x = self.atom_ptr("x")? as *const *const f64;
@@ -383,6 +527,9 @@ impl Liggghts {
             self.mass.clear();
             self.mass.extend((0..n).map(|i| *m.add(i)));
         }
+        if self.world {
+            return self.count_fed_over_ranks();
+        }
         let mut new = 0;
         for k in 0..self.ids.len() {
             let id = self.ids[k];
@@ -398,18 +545,30 @@ impl Liggghts {
         Ok(new)
     }
 
+    /// The grains fed so far over all ranks (under MPI); returns how many are new. Tags
+    /// count up from 1 without gaps (LIGGGHTS gives new atoms the tags past the largest):
+    /// the grains ever seen are the largest tag over all ranks, and a grain that moved to
+    /// another rank is not seen twice.
+    fn count_fed_over_ranks(&mut self) -> Result<usize, EngineError> {
+        let before = self.flow.fed_count + self.inserted.len() as u64;
+        let seen = self.global_max_id()?.max(before);
+        self.flow.fed_count = seen - self.inserted.len() as u64;
+        self.flow.fed_mass = self.flow.fed_count as f64 * self.mapped.grain_mass;
+        Ok((seen - before) as usize)
+    }
+
     /// Advance `steps` steps.
     pub fn advance(&mut self, steps: u64) -> Result<(), EngineError> {
         if steps == 0 {
             return Ok(());
         }
-        if self.ids.is_empty() && !self.feeds {
+        if self.global_count()? == 0 && !self.feeds {
             // Nothing to integrate and nothing will arrive: LIGGGHTS would refuse to run.
             self.steps += steps;
             self.time = self.steps as f64 * self.cfg.dt;
             return Ok(());
         }
-        let before = self.ids.len();
+        let before = self.global_count()?;
         let cmd = if self.needs_setup {
             format!("run {steps}")
         } else {
@@ -422,7 +581,14 @@ impl Liggghts {
         let new = self.refresh()?;
         // Atoms LIGGGHTS dropped at the box edge within the run: nothing else removes atoms
         // during a run, and every atom it inserted is new.
-        self.flow.lost_count += (before + new).saturating_sub(self.ids.len()) as u64;
+        let after = self.global_count()?;
+        self.flow.lost_count += (before + new).saturating_sub(after) as u64;
+        let found = self.non_finite();
+        self.agreed(found)
+    }
+
+    /// The first grain of this rank whose position or velocity is not finite.
+    fn non_finite(&self) -> Result<(), EngineError> {
         if let Some(i) = self
             .x
             .iter()
@@ -477,8 +643,9 @@ impl Liggghts {
                 return Err(format!("grain {i}: radius and density must be positive"));
             }
         }
-        // LIGGGHTS gives new atoms the tags after the largest existing one, in order.
-        let first = self.ids.iter().copied().max().unwrap_or(0);
+        // LIGGGHTS gives new atoms the tags after the largest existing one, in order (over
+        // all ranks: each rank creates the grains inside its subdomain).
+        let first = self.global_max_id()?;
         for p in x {
             self.command(&format!(
                 "create_atoms 1 single {:e} {:e} {:e} units box",
@@ -486,37 +653,47 @@ impl Liggghts {
             ))?;
         }
         // Radius, density, mass and velocity straight into LIGGGHTS's arrays.
-        let n = self.nlocal()?;
-        let tag = self.atom_ptr("id")? as *const c_int;
-        let rad = self.atom_ptr("radius")? as *mut f64;
-        let dens = self.atom_ptr("density")? as *mut f64;
-        let rm = self.atom_ptr("rmass")? as *mut f64;
-        let vel = self.atom_ptr("v")? as *const *mut f64;
         let mut ids = Vec::with_capacity(x.len());
-        // SAFETY: arrays of nlocal atoms.
-        unsafe {
-            let mut k = 0;
-            for i in 0..n {
-                let t = *tag.add(i) as u64;
-                if t > first && k < x.len() {
-                    let j = (t - first - 1) as usize;
-                    let j = j.min(x.len() - 1);
-                    *rad.add(i) = r[j];
-                    *dens.add(i) = rho[j];
-                    *rm.add(i) = rho[j] * 4.0 / 3.0 * std::f64::consts::PI * r[j].powi(3);
-                    let row = *vel.add(i);
-                    *row = v[j][0];
-                    *row.add(1) = v[j][1];
-                    *row.add(2) = v[j][2];
-                    ids.push(t);
-                    k += 1;
+        let n = self.nlocal()?;
+        // (Under MPI a rank may hold none of them, nor any grain: LIGGGHTS has no per-atom
+        // arrays on it yet.)
+        if n > 0 {
+            let tag = self.atom_ptr("id")? as *const c_int;
+            let rad = self.atom_ptr("radius")? as *mut f64;
+            let dens = self.atom_ptr("density")? as *mut f64;
+            let rm = self.atom_ptr("rmass")? as *mut f64;
+            let vel = self.atom_ptr("v")? as *const *mut f64;
+            // SAFETY: arrays of nlocal atoms.
+            unsafe {
+                let mut k = 0;
+                for i in 0..n {
+                    let t = *tag.add(i) as u64;
+                    if t > first && k < x.len() {
+                        let j = (t - first - 1) as usize;
+                        let j = j.min(x.len() - 1);
+                        *rad.add(i) = r[j];
+                        *dens.add(i) = rho[j];
+                        *rm.add(i) = rho[j] * 4.0 / 3.0 * std::f64::consts::PI * r[j].powi(3);
+                        let row = *vel.add(i);
+                        *row = v[j][0];
+                        *row.add(1) = v[j][1];
+                        *row.add(2) = v[j][2];
+                        ids.push(t);
+                        k += 1;
+                    }
                 }
             }
         }
-        if ids.len() != x.len() {
+        let mut created = [ids.len() as f64];
+        self.reduce(&mut created, Reduce::Sum)?;
+        if self.world {
+            // The ids of the grains other ranks created, too: all of them, in order.
+            ids = (first + 1..=first + created[0] as u64).collect();
+        }
+        if created[0] as usize != x.len() {
             return Err(format!(
                 "LIGGGHTS created {} of {} grains",
-                ids.len(),
+                created[0],
                 x.len()
             ));
         }
@@ -532,19 +709,22 @@ impl Liggghts {
         let past = |o: &Option<Outlet>, x: &[f64; 3]| {
             o.is_some_and(|o| (x[o.axis] - o.position) * o.sign > 0.0)
         };
-        let mut out_mass = 0.0;
-        let mut out_n = 0u64;
+        // [outflow mass, outflow count, lost count] of this rank's grains.
+        let mut counted = [0.0; 3];
         let mut gone: Vec<u64> = Vec::new();
         for i in 0..self.ids.len() {
             if past(&self.mapped.outlet, &self.x[i]) {
-                out_mass += self.mass[i];
-                out_n += 1;
+                counted[0] += self.mass[i];
+                counted[1] += 1.0;
                 gone.push(self.ids[i]);
             } else if past(&self.mapped.inlet_end_open, &self.x[i]) {
-                self.flow.lost_count += 1;
+                counted[2] += 1.0;
                 gone.push(self.ids[i]);
             }
         }
+        // Under MPI every rank deletes the same group (all ranks' ids) and counts all.
+        let gone = self.gather_ids(&gone)?;
+        self.reduce(&mut counted, Reduce::Sum)?;
         if gone.is_empty() {
             return Ok(0.0);
         }
@@ -555,8 +735,10 @@ impl Liggghts {
         }
         self.command("delete_atoms group pf_gone compress no")?;
         self.command("group pf_gone delete")?;
-        self.flow.outflow_count += out_n;
+        let out_mass = counted[0];
+        self.flow.outflow_count += counted[1] as u64;
         self.flow.outflow_mass += out_mass;
+        self.flow.lost_count += counted[2] as u64;
         self.needs_setup = true;
         self.refresh()?;
         Ok(out_mass)
@@ -591,7 +773,14 @@ impl Liggghts {
 /// `ERROR:` line when it fails.
 fn preflight(dir: &std::path::Path, commands: &[String]) -> Result<(), String> {
     let input = dir.join("preflight.in");
-    let mut text = commands.join("\n");
+    // (One process checks the input: a `processors` grid for the ranks of an MPI run
+    // would be refused here; plugflow checks it against the rank count itself.)
+    let one_process: Vec<&str> = commands
+        .iter()
+        .map(|c| c.as_str())
+        .filter(|c| !c.trim_start().starts_with("processors"))
+        .collect();
+    let mut text = one_process.join("\n");
     text.push_str("\nrun 0\n");
     std::fs::write(&input, text).map_err(|e| format!("{}: {e}", input.display()))?;
     let screen = dir.join("preflight.screen");
@@ -840,18 +1029,31 @@ impl DemBackend for Liggghts {
                 reason: "the LIGGGHTS shim takes the drag as an explicit force".into(),
             });
         }
-        if let Some(i) = force.iter().position(|f| f.iter().any(|c| !c.is_finite())) {
-            return Err(BackendError::NonFinite {
+        let local = match force.iter().position(|f| f.iter().any(|c| !c.is_finite())) {
+            Some(i) => Err(BackendError::NonFinite {
                 step: self.steps,
                 particle_id: self.ids.get(i).copied().unwrap_or(0),
                 what: format!("fluid force {:?}", force[i]),
-            });
+            }),
+            None => self
+                .set_fluid(force)
+                .map_err(|reason| BackendError::InvalidArgument {
+                    argument: "force".into(),
+                    reason,
+                }),
+        };
+        // (Under MPI: another rank's refusal is this one's, so all stop together.)
+        let words = local.as_ref().err().map(|e| e.to_string());
+        match (self.agreed(words.map_or(Ok(()), Err)), local) {
+            (Err(other), Ok(())) => Err(engine_error(other)),
+            (_, local) => local,
         }
-        self.set_fluid(force)
-            .map_err(|reason| BackendError::InvalidArgument {
-                argument: "force".into(),
-                reason,
-            })
+    }
+    fn ranks(&self) -> Ranks {
+        self.ranks
+    }
+    fn all_reduce(&self, data: &mut [f64], op: Reduce) -> Result<(), BackendError> {
+        self.reduce(data, op).map_err(engine_error)
     }
     fn insert(&mut self, particles: &[NewParticle]) -> Result<Vec<u64>, BackendError> {
         let x: Vec<[f64; 3]> = particles.iter().map(|p| p.position).collect();

@@ -3,11 +3,13 @@
 // and a message. The plugflow DEM ABI itself is implemented in Rust (src/lib.rs) on top of
 // these calls. Licence: GPL-2.0-or-later (links LIGGGHTS).
 #include <cstddef>
+#include <cstdint>
 #include <cstring>
 #include <exception>
 #include <stdexcept>
 #include <string>
 
+#include <mpi.h>
 #include <library.h>
 
 namespace {
@@ -42,6 +44,55 @@ int pfl_open(const char *log_path, const char *screen_path, void **out, char *er
         *out = nullptr;
         lammps_open_no_mpi(7, const_cast<char **>(args), out);
         if (*out == nullptr) throw std::runtime_error("lammps_open_no_mpi returned no instance");
+    })
+}
+
+// Under a launcher (mpirun): MPI initialised here if LIGGGHTS has not, this process's rank
+// and the world's size.
+int pfl_world(int *rank, int *size, char *err, size_t len) {
+    PFL_GUARD({
+        int ready = 0;
+        MPI_Initialized(&ready);
+        if (!ready) {
+            int provided = 0;
+            if (MPI_Init_thread(nullptr, nullptr, MPI_THREAD_FUNNELED, &provided) != MPI_SUCCESS)
+                throw std::runtime_error("MPI_Init_thread failed");
+        }
+        MPI_Comm_rank(MPI_COMM_WORLD, rank);
+        MPI_Comm_size(MPI_COMM_WORLD, size);
+    })
+}
+
+// Open an instance over MPI_COMM_WORLD (one per rank, all ranks together); LIGGGHTS writes
+// its log and screen from rank 0.
+int pfl_open_world(const char *log_path, const char *screen_path, void **out, char *err,
+                   size_t len) {
+    PFL_GUARD({
+        std::string log(log_path), screen(screen_path);
+        const char *args[] = {"liggghts", "-log", log.c_str(), "-screen", screen.c_str(),
+                              "-echo", "none"};
+        *out = nullptr;
+        lammps_open(7, const_cast<char **>(args), MPI_COMM_WORLD, out);
+        if (*out == nullptr) throw std::runtime_error("lammps_open returned no instance");
+    })
+}
+
+// In place over all ranks: op 0 sum, 1 maximum.
+int pfl_all_reduce(double *data, size_t n, int op, char *err, size_t len) {
+    PFL_GUARD({
+        if (n > static_cast<size_t>(INT32_MAX)) throw std::runtime_error("buffer too long");
+        int rc = MPI_Allreduce(MPI_IN_PLACE, data, static_cast<int>(n), MPI_DOUBLE,
+                               op == 1 ? MPI_MAX : MPI_SUM, MPI_COMM_WORLD);
+        if (rc != MPI_SUCCESS) throw std::runtime_error("MPI_Allreduce failed");
+    })
+}
+
+// At the end of the process's last instance under a launcher.
+int pfl_finalize(char *err, size_t len) {
+    PFL_GUARD({
+        int done = 0;
+        MPI_Finalized(&done);
+        if (!done) MPI_Finalize();
     })
 }
 
