@@ -13,7 +13,7 @@ use plugflow_coupling::{
 use plugflow_model::dem::{DemConfig, NativeDem};
 use plugflow_model::scene::Scene;
 
-use crate::input::{map, map_user, Mapped, Outlet};
+use crate::input::{map, map_user, Mapped, Outlet, INSERT_FIX};
 
 extern "C" {
     fn pfl_open(
@@ -89,6 +89,8 @@ pub struct Liggghts {
     needs_setup: bool,
     /// LIGGGHTS inserts grains itself (the scene's inlet, or the user's input).
     feeds: bool,
+    /// The scene's feed has stopped (`inlet.until` passed).
+    feed_stopped: bool,
     pub version: String,
     workdir: PathBuf,
     /// Where the engine's log files go when it closes (`DemBackend::keep_log`).
@@ -168,6 +170,7 @@ impl Liggghts {
             steps: 0,
             needs_setup: true,
             feeds: false,
+            feed_stopped: false,
             version: String::new(),
             workdir,
             keep_log: None,
@@ -399,6 +402,10 @@ impl Liggghts {
         self.inserted = st.inserted.into_iter().collect();
         self.seen = st.seen;
         self.needs_setup = true;
+        // The input makes the insertion fix again: a feed already stopped stops again at
+        // the next advance.
+        self.feeds = self.cfg.inlet.is_some() || self.user_input_given;
+        self.feed_stopped = false;
         let started = self.start(Start::Restart(path.clone()));
         let _ = std::fs::remove_file(&path);
         started
@@ -557,8 +564,33 @@ impl Liggghts {
         Ok((seen - before) as usize)
     }
 
-    /// Advance `steps` steps.
+    /// Advance `steps` steps; a feed that stops within them (`inlet.until`) stops at its
+    /// step: the run is cut there and the insertion fix removed.
     pub fn advance(&mut self, steps: u64) -> Result<(), EngineError> {
+        if let Some(stop) = self.feed_stop_step().filter(|&s| s < self.steps + steps) {
+            let before = stop.saturating_sub(self.steps);
+            self.advance_fed(before)?;
+            self.stop_feed()?;
+            return self.advance_fed(steps - before);
+        }
+        self.advance_fed(steps)
+    }
+
+    /// The step at which the scene's feed stops, while it has not (None: it runs on).
+    fn feed_stop_step(&self) -> Option<u64> {
+        let until = self.mapped.feed_until?;
+        (self.feeds && !self.feed_stopped).then(|| (until / self.cfg.dt).round() as u64)
+    }
+
+    /// Remove the insertion fix (the feeder valve closes).
+    fn stop_feed(&mut self) -> Result<(), EngineError> {
+        self.command(&format!("unfix {INSERT_FIX}"))?;
+        self.feed_stopped = true;
+        self.feeds = false;
+        Ok(())
+    }
+
+    fn advance_fed(&mut self, steps: u64) -> Result<(), EngineError> {
         if steps == 0 {
             return Ok(());
         }

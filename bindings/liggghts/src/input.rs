@@ -58,7 +58,12 @@ pub struct Mapped {
     pub outlet: Option<Outlet>,
     /// Grains leave through the open inlet end too.
     pub inlet_end_open: Option<Outlet>,
+    /// The feed stops at this time, s (`inlet.until`: the insertion fix is removed then).
+    pub feed_until: Option<f64>,
 }
+
+/// The id of the scene inlet's insertion fix.
+pub const INSERT_FIX: &str = "pf_ins";
 
 fn axis_index(axis: [f64; 3]) -> Option<(usize, f64)> {
     (0..3).find_map(|k| {
@@ -146,12 +151,6 @@ fn hertz_history(
 pub fn map(scene: &Scene, cfg: &DemConfig) -> Result<Mapped, Refusal> {
     refuse_slab(cfg)?;
     refuse_frozen(cfg)?;
-    if cfg.inlet.is_some_and(|i| i.until.is_some()) {
-        return Err(refuse(
-            "inlet.until",
-            "LIGGGHTS's own insertion runs to the end of the run (not mapped)",
-        ));
-    }
     let Some(m) = single_grain_mass(cfg) else {
         return Err(refuse(
             "particles.diameter_min",
@@ -348,7 +347,7 @@ pub fn map(scene: &Scene, cfg: &DemConfig) -> Result<Mapped, Refusal> {
                 t.axis[2] * inl.velocity,
             ];
             push(format!(
-                "fix pf_ins all insert/rate/region seed 49979687 distributiontemplate pf_pdd nparticles INF massrate {:e} insert_every {every} overlapcheck yes all_in yes maxattempt 300 vel constant {:e} {:e} {:e} region pf_inlet ntry_mc 10000",
+                "fix {INSERT_FIX} all insert/rate/region seed 49979687 distributiontemplate pf_pdd nparticles INF massrate {:e} insert_every {every} overlapcheck yes all_in yes maxattempt 300 vel constant {:e} {:e} {:e} region pf_inlet ntry_mc 10000",
                 inl.rate * m,
                 v[0],
                 v[1],
@@ -372,6 +371,7 @@ pub fn map(scene: &Scene, cfg: &DemConfig) -> Result<Mapped, Refusal> {
         grain_density: rho,
         outlet,
         inlet_end_open,
+        feed_until: cfg.inlet.and_then(|i| i.until),
     })
 }
 
@@ -498,6 +498,7 @@ pub fn map_user(cfg: &DemConfig, path: &str) -> Result<Mapped, Refusal> {
         grain_density: rho,
         outlet,
         inlet_end_open: None,
+        feed_until: None,
     })
 }
 
