@@ -5,6 +5,7 @@
 //! ```text
 //!   DEM advance (n_sub steps, fluid force held)      Stage::DemAdvance (the engine's own timers)
 //!   → deposit φ_j, u_j on the gas nodes               Stage::Deposit
+//!     (under MPI: node sums added over the ranks)     Stage::ReduceRanks
 //!   → gas step over the interval just advanced        Stage::Gas  (+ Stage::AccuracyCheck)
 //!   → interpolate ∇P_i, φ_i, u_i and the drag law     Stage::InterpolateDrag
 //!   → fluid forces to the DEM                         Stage::SetForces
@@ -31,6 +32,8 @@ use std::sync::Arc;
 pub enum Stage {
     /// Grains' volume and velocity onto the gas nodes.
     Deposit,
+    /// Under MPI: the deposited node sums added over the ranks (and the failures agreed).
+    ReduceRanks,
     /// The step-doubling estimate of the gas time error (every [`DOUBLING_EVERY`] exchanges).
     AccuracyCheck,
     /// The gas solver over one interval.
@@ -46,6 +49,7 @@ impl Stage {
     pub const fn name(self) -> &'static str {
         match self {
             Stage::Deposit => "deposit",
+            Stage::ReduceRanks => "reduce_ranks",
             Stage::AccuracyCheck => "accuracy_check",
             Stage::Gas => "gas",
             Stage::InterpolateDrag => "interpolate_drag",
@@ -241,9 +245,12 @@ impl Coupler {
     /// One exchange after the DEM has advanced `span` seconds: the stages of the step.
     fn exchange_over(&mut self, dem: &mut dyn DemBackend, span: Real) -> Result<(), ExchangeError> {
         let t = std::time::Instant::now();
-        self.deposit(dem)?;
+        let reduced = self.deposit(dem)?;
         self.timer
-            .add(Stage::Deposit.name(), t.elapsed().as_secs_f64());
+            .add(Stage::Deposit.name(), t.elapsed().as_secs_f64() - reduced);
+        if dem.ranks().size > 1 {
+            self.timer.add(Stage::ReduceRanks.name(), reduced);
+        }
         self.gas_step(span)?;
         let t = std::time::Instant::now();
         let drag = self.interpolate_drag(dem);
@@ -271,8 +278,10 @@ impl Coupler {
     /// grains fed since the last exchange (their gas enters with them). Under MPI each
     /// rank deposits its own grains and the node sums are added over the ranks (one
     /// reduction of 5 values per node): every rank then steps the same gas.
-    fn deposit(&mut self, dem: &dyn DemBackend) -> Result<(), ExchangeError> {
+    /// Returns the seconds spent adding over the ranks.
+    fn deposit(&mut self, dem: &dyn DemBackend) -> Result<f64, ExchangeError> {
         let ranks = dem.ranks();
+        let mut reduced = 0.0;
         let grid: &TubeGrid = self.gas.grid();
         let p = dem.particles();
         let (x, v, r) = (p.position, p.velocity, p.radius);
@@ -298,7 +307,9 @@ impl Coupler {
         let members = match ranks.size {
             1 => members,
             _ => {
+                let t = std::time::Instant::now();
                 sum_over_ranks(dem, &mut self.sums[..members], &mut self.reduce_buffer)?;
+                reduced += t.elapsed().as_secs_f64();
                 1
             }
         };
@@ -325,7 +336,9 @@ impl Coupler {
                 }
             }
             if ranks.size > 1 {
+                let t = std::time::Instant::now();
                 dem.all_reduce(fed, Reduce::Sum)?;
+                reduced += t.elapsed().as_secs_f64();
             }
             for (f, vol) in fed.iter_mut().zip(&grid.volume) {
                 *f /= vol.max(1e-300);
@@ -335,12 +348,14 @@ impl Coupler {
         let mut next = p.id.iter().map(|&id| id + 1).fold(floor, u64::max);
         if ranks.size > 1 {
             // (Ids below 2⁵³ pass through an f64 exactly.)
+            let t = std::time::Instant::now();
             let mut m = [next as f64];
             dem.all_reduce(&mut m, Reduce::Max)?;
             next = m[0] as u64;
+            reduced += t.elapsed().as_secs_f64();
         }
         self.first_new_id = Some(next);
-        Ok(())
+        Ok(reduced)
     }
 
     /// The gas over `span` seconds, with its step-doubling error estimate every
