@@ -70,3 +70,166 @@ pub fn first_failure(
         .collect();
     Ok(Some((first, String::from_utf8_lossy(&bytes).into_owned())))
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::backend::{ImplicitDrag, NewParticle, ParticleView, Ranks, WallForce};
+    use crate::Vec3;
+    use std::sync::{Arc, Barrier, Mutex};
+
+    /// Ranks as threads: an all-reduce through a shared buffer between two barriers (the
+    /// sum in rank order, as a fixed reduction order gives).
+    struct Hub {
+        barrier: Barrier,
+        parts: Mutex<Vec<Vec<f64>>>,
+    }
+
+    struct ThreadRank {
+        ranks: Ranks,
+        hub: Arc<Hub>,
+    }
+
+    impl DemBackend for ThreadRank {
+        fn engine_name(&self) -> &str {
+            "threads"
+        }
+        fn engine_version(&self) -> String {
+            String::new()
+        }
+        fn time_step(&self) -> f64 {
+            1.0
+        }
+        fn time(&self) -> f64 {
+            0.0
+        }
+        fn step_count(&self) -> u64 {
+            0
+        }
+        fn advance(&mut self, _: u64) -> Result<(), BackendError> {
+            Ok(())
+        }
+        fn particles(&self) -> ParticleView<'_> {
+            ParticleView {
+                id: &[],
+                position: &[],
+                velocity: &[],
+                angular_velocity: &[],
+                radius: &[],
+                mass: &[],
+            }
+        }
+        fn set_fluid_forces(
+            &mut self,
+            _: &[Vec3],
+            _: Option<ImplicitDrag<'_>>,
+        ) -> Result<(), BackendError> {
+            Ok(())
+        }
+        fn insert(&mut self, _: &[NewParticle]) -> Result<Vec<u64>, BackendError> {
+            Ok(Vec::new())
+        }
+        fn remove_past_outlet(&mut self) -> Result<f64, BackendError> {
+            Ok(0.0)
+        }
+        fn wall_forces(&self) -> Vec<WallForce> {
+            Vec::new()
+        }
+        fn stage_times(&self) -> Vec<(String, f64)> {
+            Vec::new()
+        }
+        fn ranks(&self) -> Ranks {
+            self.ranks
+        }
+        fn all_reduce(&self, data: &mut [f64], op: Reduce) -> Result<(), BackendError> {
+            self.hub.parts.lock().unwrap()[self.ranks.rank] = data.to_vec();
+            self.hub.barrier.wait();
+            {
+                let parts = self.hub.parts.lock().unwrap();
+                for (k, v) in data.iter_mut().enumerate() {
+                    let column = parts.iter().map(|p| p[k]);
+                    *v = match op {
+                        Reduce::Sum => column.sum(),
+                        Reduce::Max => column.fold(f64::NEG_INFINITY, f64::max),
+                    };
+                }
+            }
+            self.hub.barrier.wait();
+            Ok(())
+        }
+    }
+
+    /// Run `body` on `size` thread-ranks; their results in rank order.
+    fn on_ranks<T: Send + 'static>(
+        size: usize,
+        body: impl Fn(&ThreadRank) -> T + Send + Sync + 'static,
+    ) -> Vec<T> {
+        let hub = Arc::new(Hub {
+            barrier: Barrier::new(size),
+            parts: Mutex::new(vec![Vec::new(); size]),
+        });
+        let body = Arc::new(body);
+        let handles: Vec<_> = (0..size)
+            .map(|rank| {
+                let (hub, body) = (hub.clone(), body.clone());
+                std::thread::spawn(move || {
+                    body(&ThreadRank {
+                        ranks: Ranks { rank, size },
+                        hub,
+                    })
+                })
+            })
+            .collect();
+        handles.into_iter().map(|h| h.join().unwrap()).collect()
+    }
+
+    #[test]
+    fn a_gather_puts_every_rank_s_piece_in_rank_order_bit_for_bit() {
+        // Rank r holds r + 1 values (rank 1 none at all: a rank may own no grain).
+        let got = on_ranks(3, |me| {
+            let r = me.ranks.rank;
+            let local: Vec<f64> = match r {
+                1 => Vec::new(),
+                _ => (0..=r).map(|k| 0.1 * (r * 10 + k) as f64 + 1e-17).collect(),
+                // (the same values as `value` below)
+            };
+            all_gather(me, &local).unwrap()
+        });
+        let value = |r: usize, k: usize| 0.1 * (r * 10 + k) as f64 + 1e-17;
+        let want = [value(0, 0), value(2, 0), value(2, 1), value(2, 2)];
+        for g in &got {
+            assert_eq!(g.len(), 4);
+            for (a, b) in g.iter().zip(&want) {
+                assert_eq!(a.to_bits(), b.to_bits());
+            }
+        }
+        let ids = on_ranks(2, |me| {
+            all_gather_u64(me, &[(1 << 52) + me.ranks.rank as u64]).unwrap()
+        });
+        assert_eq!(ids[0], vec![1 << 52, (1 << 52) + 1]);
+        assert_eq!(ids[0], ids[1]);
+    }
+
+    #[test]
+    fn a_failure_on_one_rank_is_every_rank_s_with_its_words() {
+        let got = on_ranks(3, |me| {
+            let mine = match me.ranks.rank {
+                2 => Some("non-finite position of grain 17"),
+                _ => None,
+            };
+            first_failure(me, mine).unwrap()
+        });
+        for g in got {
+            assert_eq!(g, Some((2, "non-finite position of grain 17".to_string())));
+        }
+        // Two failing: the first rank's words; none failing: none.
+        let got = on_ranks(2, |me| {
+            first_failure(me, Some(&format!("rank {} broke", me.ranks.rank))).unwrap()
+        });
+        assert!(got
+            .iter()
+            .all(|g| g == &Some((0, "rank 0 broke".to_string()))));
+        let got = on_ranks(2, |me| first_failure(me, None).unwrap());
+        assert!(got.iter().all(|g| g.is_none()));
+    }
+}
