@@ -193,7 +193,7 @@ fn g_isolated_engine_death_is_an_error_not_a_crash() {
 }
 
 /// `plugflow validate` asks the chosen engine without starting it (`pf_dem_check`): a scene
-/// LIGGGHTS cannot take (a feed valve closing, `inlet.until`) is refused by `validate` with
+/// LIGGGHTS cannot take (a quasi-2D slab, `tube.slab`) is refused by `validate` with
 /// the field and reason; the case itself validates on LIGGGHTS.
 #[test]
 fn h_validate_runs_liggghts_s_own_refusals() {
@@ -205,11 +205,13 @@ fn h_validate_runs_liggghts_s_own_refusals() {
         "--set",
         "dem.engine=liggghts",
         "--set",
-        "inlet.until=1 s",
+        "tube.slab=\"1.5 mm\"",
+        "--set",
+        "inlet.velocity=\"0.2 m/s\"",
     ]);
     assert_eq!(code, 2, "{text}");
     assert!(
-        text.contains("`liggghts` engine refuses") && text.contains("inlet.until"),
+        text.contains("`liggghts` engine refuses") && text.contains("`tube.slab`"),
         "{text}"
     );
     let (code, text) = plugflow(&[

@@ -226,6 +226,24 @@ fn b_what_cannot_run_on_several_ranks_is_refused() {
         "{text}"
     );
     let _ = std::fs::remove_dir_all(&dir);
+    // Starting from a checkpoint (not written under MPI yet).
+    let o = mpirun(
+        2,
+        &[
+            "run",
+            scene,
+            "--set",
+            "dem.engine=liggghts",
+            "--resume",
+            "/nonexistent",
+        ],
+    );
+    let text = said(&o);
+    assert_eq!(o.status.code(), Some(2), "{text}");
+    assert!(
+        text.contains("(--resume, --from) is not available under MPI (2 ranks)"),
+        "{text}"
+    );
     // sweep starts runs of its own.
     let o = mpirun(2, &["sweep", scene, "--vary", "seed=1,2"]);
     let text = said(&o);

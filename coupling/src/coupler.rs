@@ -32,7 +32,7 @@ use std::sync::Arc;
 pub enum Stage {
     /// Grains' volume and velocity onto the gas nodes.
     Deposit,
-    /// Under MPI: the deposited node sums added over the ranks (and the failures agreed).
+    /// Under MPI: the deposited node sums (and the fed grains' volume) added over the ranks.
     ReduceRanks,
     /// The step-doubling estimate of the gas time error (every [`DOUBLING_EVERY`] exchanges).
     AccuracyCheck,

@@ -7,7 +7,28 @@
 //! bit for bit (a −0.0 arrives as +0.0). It moves the whole buffer on every rank, as an
 //! all-gather does; it runs at samples and for the grains leaving, not at every exchange.
 
-use crate::backend::{BackendError, DemBackend, Reduce};
+use crate::backend::{BackendError, DemBackend, Ranks, Reduce};
+
+/// This process's rank and the rank count when an MPI launcher started it (OpenMPI's
+/// `mpirun` sets `OMPI_COMM_WORLD_RANK`/`_SIZE`, MPICH's and Slurm's `PMI_RANK`/`PMI_SIZE`),
+/// read from the environment: plugflow knows its rank before any engine starts, without
+/// linking MPI. None without a launcher.
+pub fn launcher() -> Option<Ranks> {
+    let read = |k: &str| {
+        std::env::var(k)
+            .ok()
+            .and_then(|v| v.trim().parse::<usize>().ok())
+    };
+    [
+        ("OMPI_COMM_WORLD_RANK", "OMPI_COMM_WORLD_SIZE"),
+        ("PMI_RANK", "PMI_SIZE"),
+    ]
+    .into_iter()
+    .find_map(|(rank, size)| match (read(rank), read(size)) {
+        (Some(rank), Some(size)) if size >= 1 && rank < size => Some(Ranks { rank, size }),
+        _ => None,
+    })
+}
 
 /// Every rank's `local` values, concatenated in rank order, on every rank.
 pub fn all_gather(dem: &dyn DemBackend, local: &[f64]) -> Result<Vec<f64>, BackendError> {
@@ -74,7 +95,7 @@ pub fn first_failure(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::backend::{ImplicitDrag, NewParticle, ParticleView, Ranks, WallForce};
+    use crate::backend::{ImplicitDrag, NewParticle, ParticleView, WallForce};
     use crate::Vec3;
     use std::sync::{Arc, Barrier, Mutex};
 

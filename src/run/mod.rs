@@ -58,6 +58,13 @@ pub enum RunError {
         path: String,
         source: std::io::Error,
     },
+    /// Under MPI: another rank stopped the run (rank 0's files: no room, run.h5), in its
+    /// words.
+    #[error("rank {rank}: {message}")]
+    OtherRank { rank: usize, message: String },
+    /// What a run on several MPI ranks cannot do yet.
+    #[error("{what} is not available under MPI ({ranks} ranks) yet: run on one rank")]
+    NotUnderMpi { what: &'static str, ranks: usize },
 }
 
 /// How to run.
@@ -89,6 +96,13 @@ pub struct RunOutcome {
 
 /// Run a scene to its end.
 pub fn run(scene: &Scene, opts: &RunOptions) -> Result<RunOutcome, RunError> {
+    let world = setup::ranks::launched();
+    if world.size > 1 && (opts.resume.is_some() || opts.from.is_some()) {
+        return Err(RunError::NotUnderMpi {
+            what: "starting from a checkpoint (--resume, --from)",
+            ranks: world.size,
+        });
+    }
     // The checkpoints it begins from, checked against the scene before anything is touched.
     let beginning =
         checkpoint::Beginning::read(scene, opts.resume.as_deref(), opts.from.as_deref())?;
@@ -99,7 +113,7 @@ pub fn run(scene: &Scene, opts: &RunOptions) -> Result<RunOutcome, RunError> {
         .unwrap_or_else(|| scene.default_output_dir());
     // Under MPI (LIGGGHTS on several ranks) rank 0 alone writes the run's files; every
     // rank steps, samples and decides alike.
-    let lead = setup::ranks::launched().leads();
+    let lead = world.leads();
     let mut log = match lead {
         true => {
             std::fs::create_dir_all(&out_dir).map_err(|source| RunError::Io {
@@ -130,8 +144,11 @@ pub fn run(scene: &Scene, opts: &RunOptions) -> Result<RunOutcome, RunError> {
     let ranks = dem.ranks();
     // The grains of all ranks, gathered at each sample (None: one process, read directly).
     let mut gathered = (ranks.size > 1).then(gathered::Gathered::default);
-    if !lead {
-    } else if let Err(e) = dem.keep_log(&out_dir) {
+    let kept = match lead {
+        true => dem.keep_log(&out_dir),
+        false => Ok(()),
+    };
+    if let Err(e) = kept {
         log.line(&format!(
             "warning: the engine's own log cannot be kept: {e}"
         ));
@@ -251,8 +268,13 @@ pub fn run(scene: &Scene, opts: &RunOptions) -> Result<RunOutcome, RunError> {
     };
     while at.steps_done < total_steps {
         // Before the steps of the next sample: a run stopped for room ends where run.h5 does.
-        if let Err(e) = room.check() {
-            failure = Some(RunError::Output(e));
+        // (Rank 0's disk: under MPI every rank stops with it.)
+        let room_left = match lead {
+            true => room.check().map_err(RunError::Output),
+            false => Ok(()),
+        };
+        if let Err(e) = agreed(dem.as_ref(), room_left) {
+            failure = Some(e);
             break;
         }
         let n = per_sample.min(total_steps - at.steps_done);
@@ -296,10 +318,14 @@ pub fn run(scene: &Scene, opts: &RunOptions) -> Result<RunOutcome, RunError> {
                 break;
             }
         };
-        let seen = match sampling.sample(&cfg, view, gas.as_ref(), dt, &mut outputs, snapshot_due) {
+        let sampled = sampling
+            .sample(&cfg, view, gas.as_ref(), dt, &mut outputs, snapshot_due)
+            .map_err(RunError::Output);
+        // (Only rank 0 writes outputs: under MPI every rank stops with its failure.)
+        let seen = match agreed(dem.as_ref(), sampled) {
             Ok(seen) => seen,
             Err(e) => {
-                failure = Some(RunError::Output(e));
+                failure = Some(e);
                 break;
             }
         };
@@ -397,15 +423,18 @@ pub fn run(scene: &Scene, opts: &RunOptions) -> Result<RunOutcome, RunError> {
             dem.as_ref()
         }
     };
-    if !lead {
-    } else if let Err(e) = write_figures(
-        &out_dir,
-        &cfg,
-        view,
-        gas.as_ref(),
-        &sampling,
-        profiles.as_ref(),
-    ) {
+    let drawn = match lead {
+        true => write_figures(
+            &out_dir,
+            &cfg,
+            view,
+            gas.as_ref(),
+            &sampling,
+            profiles.as_ref(),
+        ),
+        false => Ok(()),
+    };
+    if let Err(e) = drawn {
         end_errors.push(e);
     }
     if let Some(res) = &profiles {
@@ -443,8 +472,11 @@ pub fn run(scene: &Scene, opts: &RunOptions) -> Result<RunOutcome, RunError> {
         },
         wall_time: at.wall_before + wall.elapsed().as_secs_f64(),
     });
-    if !lead {
-    } else if let Err(e) = write_summary(&out_dir.join("summary.json"), &summary) {
+    let written = match lead {
+        true => write_summary(&out_dir.join("summary.json"), &summary),
+        false => Ok(()),
+    };
+    if let Err(e) = written {
         end_errors.push(e);
     }
     for w in &summary.warnings {
@@ -488,6 +520,27 @@ fn viewed<'a>(
             g.refresh(dem)?;
             Ok(g)
         }
+    }
+}
+
+/// Under MPI, a failure one rank alone can meet (rank 0's files) stops every rank at the
+/// same place, each with the failing rank's words; with one rank, the result as it is.
+fn agreed<T>(
+    dem: &dyn plugflow_coupling::DemBackend,
+    local: Result<T, RunError>,
+) -> Result<T, RunError> {
+    if dem.ranks().size == 1 {
+        return local;
+    }
+    let words = local.as_ref().err().map(|e| e.to_string());
+    match plugflow_coupling::ranks::first_failure(dem, words.as_deref()) {
+        Ok(None) => local,
+        Ok(Some(_)) if local.is_err() => local,
+        Ok(Some((rank, message))) => Err(RunError::OtherRank { rank, message }),
+        Err(source) => Err(RunError::Step(StepError::Backend {
+            time: dem.time(),
+            source,
+        })),
     }
 }
 

@@ -7,26 +7,9 @@ use plugflow_coupling::Ranks;
 
 use crate::scene::{Scene, SceneError};
 
-/// This process's rank and the rank count, from the launcher's environment (OpenMPI's
-/// `OMPI_COMM_WORLD_RANK`/`_SIZE`, MPICH's and Slurm's `PMI_RANK`/`PMI_SIZE`); one
-/// process without a launcher.
+/// This process's rank and the rank count under an MPI launcher; one process without.
 pub fn launched() -> Ranks {
-    let read = |k: &str| {
-        std::env::var(k)
-            .ok()
-            .and_then(|v| v.trim().parse::<usize>().ok())
-    };
-    for (rank, size) in [
-        ("OMPI_COMM_WORLD_RANK", "OMPI_COMM_WORLD_SIZE"),
-        ("PMI_RANK", "PMI_SIZE"),
-    ] {
-        if let (Some(rank), Some(size)) = (read(rank), read(size)) {
-            if size >= 1 && rank < size {
-                return Ranks { rank, size };
-            }
-        }
-    }
-    Ranks::SINGLE
+    plugflow_coupling::ranks::launcher().unwrap_or(Ranks::SINGLE)
 }
 
 /// What a scene must be to run on `ranks.size` ranks: the DEM on an engine that runs

@@ -65,15 +65,6 @@ static OPEN_CLOSE: Mutex<()> = Mutex::new(());
 /// An error of a LIGGGHTS call.
 pub type EngineError = String;
 
-/// Whether this process was started by an MPI launcher (`mpirun`): LIGGGHTS then runs
-/// over MPI_COMM_WORLD, one instance across all ranks, each owning the grains of its
-/// subdomain (OpenMPI sets OMPI_COMM_WORLD_SIZE, MPICH and Slurm PMI_SIZE).
-pub fn launched_by_mpirun() -> bool {
-    ["OMPI_COMM_WORLD_SIZE", "PMI_SIZE"]
-        .iter()
-        .any(|k| std::env::var_os(k).is_some())
-}
-
 /// A LIGGGHTS instance with the scene mapped into it.
 pub struct Liggghts {
     lmp: *mut c_void,
@@ -158,7 +149,10 @@ impl Liggghts {
                 return Err(format!("field `dem.liggghts_input`: {e}"));
             }
         }
-        let world = launched_by_mpirun();
+        // Started by an MPI launcher (`mpirun`, any rank count, 1 included): LIGGGHTS runs
+        // over MPI_COMM_WORLD, one instance across all ranks, each owning the grains of
+        // its subdomain.
+        let world = plugflow_coupling::ranks::launcher().is_some();
         let (lmp, ranks) = Self::open(&workdir, world)?;
         let mut me = Self {
             lmp,
@@ -290,53 +284,19 @@ impl Liggghts {
         Ok(m[0] as u64)
     }
 
-    /// Every rank's `local` ids, on every rank (a gather through the sum reduction).
+    /// Every rank's `local` ids, on every rank.
     fn gather_ids(&self, local: &[u64]) -> Result<Vec<u64>, EngineError> {
-        if !self.world {
-            return Ok(local.to_vec());
-        }
-        let mut counts = vec![0.0; self.ranks.size];
-        counts[self.ranks.rank] = local.len() as f64;
-        self.reduce(&mut counts, Reduce::Sum)?;
-        let offset: usize = counts[..self.ranks.rank].iter().map(|&c| c as usize).sum();
-        let total: usize = counts.iter().map(|&c| c as usize).sum();
-        let mut all = vec![0.0; total];
-        for (a, &id) in all[offset..].iter_mut().zip(local) {
-            *a = id as f64;
-        }
-        self.reduce(&mut all, Reduce::Sum)?;
-        Ok(all.into_iter().map(|v| v as u64).collect())
+        plugflow_coupling::ranks::all_gather_u64(self, local).map_err(|e| e.to_string())
     }
 
     /// Under MPI a failure on one rank is every rank's (the healthy ones would wait in the
     /// next collective call for ever): the first failing rank's words, on all.
     fn agreed<T>(&self, local: Result<T, EngineError>) -> Result<T, EngineError> {
-        if !self.world || self.ranks.size == 1 {
-            return local;
-        }
-        let mut failed = vec![0.0; self.ranks.size];
-        failed[self.ranks.rank] = local.is_err() as u8 as f64;
-        self.reduce(&mut failed, Reduce::Sum)?;
-        let Some(first) = failed.iter().position(|&f| f > 0.0) else {
-            return local;
-        };
-        let mut text = vec![0.0; 1024];
-        if let (true, Err(m)) = (first == self.ranks.rank, &local) {
-            for (t, &b) in text.iter_mut().zip(m.as_bytes()) {
-                *t = b as f64;
-            }
-        }
-        self.reduce(&mut text, Reduce::Sum)?;
-        match local {
-            Err(m) if first == self.ranks.rank => Err(m),
-            _ => {
-                let bytes: Vec<u8> = text
-                    .iter()
-                    .map(|&b| b as u8)
-                    .take_while(|&b| b != 0)
-                    .collect();
-                Err(format!("rank {first}: {}", String::from_utf8_lossy(&bytes)))
-            }
+        let words = local.as_ref().err().cloned();
+        match plugflow_coupling::ranks::first_failure(self, words.as_deref()) {
+            Ok(Some((rank, message))) if local.is_ok() => Err(format!("rank {rank}: {message}")),
+            Ok(_) => local,
+            Err(e) => Err(e.to_string()),
         }
     }
 
