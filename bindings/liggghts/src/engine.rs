@@ -547,6 +547,8 @@ impl Liggghts {
         self.command(&format!("unfix {INSERT_FIX}"))?;
         self.feed_stopped = true;
         self.feeds = false;
+        // (LIGGGHTS sets up again after a fix changes: the next run is not `pre no`.)
+        self.needs_setup = true;
         Ok(())
     }
 
