@@ -149,6 +149,8 @@ pub struct Coupler {
     sums: Vec<NodeSums>,
     /// Scratch of the deposit under MPI: the node sums in one buffer for the reduction.
     reduce_buffer: Vec<f64>,
+    /// The deposit spread over a length (`coupling.smoothing_length`); None: as deposited.
+    smoothing: Option<crate::grid::Smoothing>,
     /// Scratch of the interpolation: each member's first grain whose drag is not finite.
     bad: Vec<Option<usize>>,
     /// Grains with ids from this one on are new since the last exchange (None before the
@@ -182,9 +184,20 @@ impl Coupler {
             forces: Vec::new(),
             sums: Vec::new(),
             reduce_buffer: Vec::new(),
+            smoothing: None,
             bad: Vec::new(),
             first_new_id: None,
         }
+    }
+
+    /// Spread every deposit over `length` (m) before the gas and the drag read it.
+    pub fn set_smoothing(&mut self, length: Real) {
+        self.smoothing = Some(crate::grid::Smoothing::new(self.gas.grid(), length));
+    }
+
+    /// Diffusion passes per exchange of the deposit's smoothing (None: not smoothed).
+    pub fn smoothing_passes(&self) -> Option<usize> {
+        self.smoothing.as_ref().map(|s| s.passes())
     }
 
     /// The state a checkpoint keeps (see [`CouplerState`]).
@@ -355,6 +368,9 @@ impl Coupler {
             reduced += t.elapsed().as_secs_f64();
         }
         self.first_new_id = Some(next);
+        if let Some(smoothing) = self.smoothing.as_mut() {
+            smoothing.apply(self.gas.grid(), &mut self.fields);
+        }
         Ok(reduced)
     }
 

@@ -29,6 +29,20 @@ pub fn check_row(c: &CouplingCheck) -> CheckRow {
 
 /// The coupling a scene asks for (`None` without `[gas]`).
 pub fn coupling_from_scene(scene: &Scene, dem: &DemConfig) -> Result<Option<Coupler>, SceneError> {
+    let mut coupler = gas_coupler(scene, dem)?;
+    let smoothing = scene
+        .file
+        .coupling
+        .as_ref()
+        .and_then(|c| c.smoothing_length);
+    if let (Some(c), Some(length)) = (coupler.as_mut(), smoothing) {
+        c.set_smoothing(length.si);
+    }
+    Ok(coupler)
+}
+
+/// The gas, drag and checks of a scene's coupling, unsmoothed.
+fn gas_coupler(scene: &Scene, dem: &DemConfig) -> Result<Option<Coupler>, SceneError> {
     {
         let f = &scene.file;
         let Some(g) = &f.gas else {

@@ -1055,6 +1055,19 @@ fn check_coupling(f: &SceneFile, simple: bool) -> Result<(), SceneError> {
                 ));
             }
         }
+        if let (Some(l), Some(t)) = (c.smoothing_length, &f.tube) {
+            let d = t.diameter.si;
+            if !(l.si > 0.0 && l.si <= d) {
+                return Err(field_err(
+                    "coupling.smoothing_length",
+                    format!(
+                        "must lie in (0, {d} m] (the tube's diameter: it spreads a deposit \
+                         over grains, not across the pipe), got {} m",
+                        l.si
+                    ),
+                ));
+            }
+        }
     }
     Ok(())
 }

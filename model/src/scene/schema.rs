@@ -157,6 +157,11 @@ pub struct CouplingSpec {
     /// `pressure_gradient` with the `simple` gas (its momentum equation needs it), none with
     /// the `darcy` gas (the d'Arcy volume force is the whole fluid force).
     pub fluid_forces: Option<Vec<String>>,
+    /// Spread the deposited solid fraction and granular velocity over this length (as
+    /// Lethe's and CFDEMcoupling's smoothing of the void fraction; ~2 grain diameters), by
+    /// a diffusion that conserves both: on cells near the grain size the loose rim of a
+    /// packing at the wall otherwise shows as a channel. Default: none (the tent deposit).
+    pub smoothing_length: Option<Q<Length>>,
 }
 
 impl SceneFile {
