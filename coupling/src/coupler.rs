@@ -22,8 +22,8 @@ use crate::grid::{
 };
 use crate::team::{share, Shared, Team};
 use crate::{
-    BackendError, DemBackend, DragLaw, GasError, GasSolver, GrainInFluid, Real, Reduce, StageTimer,
-    Vec3,
+    BackendError, DemBackend, DragLaw, GasError, GasSolver, GrainInFluid, Ranks, Real, Reduce,
+    StageTimer, Vec3,
 };
 use std::sync::Arc;
 
@@ -257,17 +257,18 @@ impl Coupler {
 
     /// One exchange after the DEM has advanced `span` seconds: the stages of the step.
     fn exchange_over(&mut self, dem: &mut dyn DemBackend, span: Real) -> Result<(), ExchangeError> {
+        let ranks = dem.ranks();
         let t = std::time::Instant::now();
-        let reduced = self.deposit(dem)?;
+        let reduced = self.deposit(dem, ranks)?;
         self.timer
             .add(Stage::Deposit.name(), t.elapsed().as_secs_f64() - reduced);
-        if dem.ranks().size > 1 {
+        if ranks.size > 1 {
             self.timer.add(Stage::ReduceRanks.name(), reduced);
         }
         self.gas_step(span)?;
         let t = std::time::Instant::now();
         let drag = self.interpolate_drag(dem);
-        if dem.ranks().size > 1 {
+        if ranks.size > 1 {
             // A rank whose drag failed stops every rank here, with its words.
             let mine = drag.as_ref().err().map(|e| e.to_string());
             if let Some((rank, message)) = crate::ranks::first_failure(dem, mine.as_deref())? {
@@ -292,8 +293,7 @@ impl Coupler {
     /// rank deposits its own grains and the node sums are added over the ranks (one
     /// reduction of 5 values per node): every rank then steps the same gas.
     /// Returns the seconds spent adding over the ranks.
-    fn deposit(&mut self, dem: &dyn DemBackend) -> Result<f64, ExchangeError> {
-        let ranks = dem.ranks();
+    fn deposit(&mut self, dem: &dyn DemBackend, ranks: Ranks) -> Result<f64, ExchangeError> {
         let mut reduced = 0.0;
         let grid: &TubeGrid = self.gas.grid();
         let p = dem.particles();

@@ -726,6 +726,8 @@ pub struct Smoothing {
     passes: usize,
     /// Scratch: the concentrations of the pass (solid, 3 momentum).
     c: Vec<[Real; 4]>,
+    /// Scratch: each node's change over one pass.
+    delta: Vec<[Real; 4]>,
 }
 
 impl Smoothing {
@@ -781,12 +783,39 @@ impl Smoothing {
             kappa: total / passes as Real,
             passes,
             c: Vec::new(),
+            delta: Vec::new(),
         }
     }
 
     /// Diffusion passes per exchange.
     pub fn passes(&self) -> usize {
         self.passes
+    }
+
+    /// Explicit conservative diffusion of the concentrations in `c` (per node volume).
+    fn diffuse(&mut self, volume: &[Real]) {
+        let (c, delta) = (&mut self.c, &mut self.delta);
+        delta.clear();
+        delta.resize(c.len(), [0.0; 4]);
+        for _ in 0..self.passes {
+            delta.fill([0.0; 4]);
+            for &(a, b, g) in &self.faces {
+                let (a, b) = (a as usize, b as usize);
+                for q in 0..4 {
+                    // Volume crossing the face in this pass (m³ of solid, or m³·m/s).
+                    let flux = self.kappa * g * (c[a][q] - c[b][q]);
+                    delta[a][q] -= flux;
+                    delta[b][q] += flux;
+                }
+            }
+            for ((c, d), &v) in c.iter_mut().zip(delta.iter()).zip(volume) {
+                if v > 0.0 {
+                    for q in 0..4 {
+                        c[q] += d[q] / v;
+                    }
+                }
+            }
+        }
     }
 
     /// Smooth the solid fraction and granular velocity of a deposit (and the fed grains'
@@ -800,13 +829,7 @@ impl Smoothing {
             let u = fields.velocity[j];
             [s, s * u[0], s * u[1], s * u[2]]
         }));
-        diffuse(
-            &self.faces,
-            self.kappa,
-            self.passes,
-            &grid.volume,
-            &mut self.c,
-        );
+        self.diffuse(&grid.volume);
         for j in 0..n {
             let [s, m0, m1, m2] = self.c[j];
             fields.porosity[j] = 1.0 - s;
@@ -819,47 +842,9 @@ impl Smoothing {
             self.c.clear();
             self.c
                 .extend(fields.fed_solid.iter().map(|&f| [f, 0.0, 0.0, 0.0]));
-            diffuse(
-                &self.faces,
-                self.kappa,
-                self.passes,
-                &grid.volume,
-                &mut self.c,
-            );
+            self.diffuse(&grid.volume);
             for (f, c) in fields.fed_solid.iter_mut().zip(&self.c) {
                 *f = c[0];
-            }
-        }
-    }
-}
-
-/// Explicit conservative diffusion of concentrations `c` (per node volume) over `faces`.
-fn diffuse(
-    faces: &[(u32, u32, Real)],
-    kappa: Real,
-    passes: usize,
-    volume: &[Real],
-    c: &mut [[Real; 4]],
-) {
-    let mut delta = vec![[0.0; 4]; c.len()];
-    for _ in 0..passes {
-        for d in delta.iter_mut() {
-            *d = [0.0; 4];
-        }
-        for &(a, b, g) in faces {
-            let (a, b) = (a as usize, b as usize);
-            for q in 0..4 {
-                // Volume crossing the face in this pass (m³ of solid, or m³·m/s).
-                let flux = kappa * g * (c[a][q] - c[b][q]);
-                delta[a][q] -= flux;
-                delta[b][q] += flux;
-            }
-        }
-        for ((c, d), &v) in c.iter_mut().zip(&delta).zip(volume) {
-            if v > 0.0 {
-                for q in 0..4 {
-                    c[q] += d[q] / v;
-                }
             }
         }
     }
