@@ -29,6 +29,7 @@
 //! cutting the cells (validated against Hagen–Poiseuille).
 
 mod geometry;
+mod pressure;
 mod solver;
 #[cfg(test)]
 mod tests;
@@ -39,11 +40,12 @@ pub use solver::SimpleGas;
 pub use tube::SimpleTubeGas;
 // The parts see one another's crate-private items.
 use geometry::*;
+use pressure::PressureSystem;
 
 use faer::linalg::solvers::Solve;
 use faer::sparse::linalg::solvers::{Llt, SymbolicLlt};
 use faer::sparse::{Argsort, Pair, SparseColMat, SymbolicSparseColMat};
-use faer::{Mat, Side};
+use faer::Side;
 use plugflow_coupling::drag::ErgunWenYu;
 use plugflow_coupling::DragLaw;
 use plugflow_coupling::{GasError, GasSolver, GasStepReport, GranularFields, TubeGrid};

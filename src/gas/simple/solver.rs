@@ -31,6 +31,8 @@ pub struct SimpleGas {
     /// The cells beside every face (per direction).
     pub(super) face_cells: [Vec<(usize, usize)>; 3],
     pub(super) symbolic: Option<SymbolicLlt<usize>>,
+    /// The pressure correction's working storage (and the factorisation of this step).
+    pub(super) pressure: PressureSystem,
     /// The pressure-correction matrix's pattern and the order its values are pushed in
     /// (the same every iteration: built once).
     pub(super) pattern: Option<(SymbolicSparseColMat<usize>, Argsort<usize>)>,
@@ -79,6 +81,7 @@ impl SimpleGas {
             face_cells,
             symbolic: None,
             pattern: None,
+            pressure: PressureSystem::default(),
             drive_gradient: 0.0,
             mean_superficial_velocity: params.inlet_velocity,
             control_interstitial: false,
@@ -113,6 +116,11 @@ impl SimpleGas {
             .zip(&self.porosity)
             .map(|(r, e)| r * e)
             .collect()
+    }
+
+    /// The pressure correction's factorisations and conjugate-gradient iterations so far.
+    pub fn pressure_solves(&self) -> (usize, usize) {
+        (self.pressure.factorisations, self.pressure.cg_iterations)
     }
 
     /// Gas mass in the grid, kg.
@@ -374,6 +382,8 @@ impl SimpleGas {
         let inflow = pr.density * pr.inlet_velocity * self.geometry.flow_area;
         // ∂ρ/∂p of the ideal gas (for the pressure correction), s²/m².
         let drho_dp = pr.ideal_gas_pressure.map_or(0.0, |p0| pr.density / p0);
+        // The step's first iteration factorises (see [`PressureSystem`]).
+        self.pressure.new_step();
         let mut report = SimpleReport {
             iterations: 0,
             mass_residual: Real::INFINITY,
@@ -387,10 +397,11 @@ impl SimpleGas {
             self.apply_inlet(&faces);
             let beta = self.beta();
             let (mut star, du) = self.predict_velocities(&faces, &beta, transient.as_ref());
-            let (pc, worst) =
+            let worst =
                 self.pressure_correction(&faces, &star, &du, transient.as_ref(), drho_dp)?;
+            let pc = &self.pressure.solution;
             // ---- corrections -------------------------------------------------------------
-            for (p, c) in self.p.iter_mut().zip(&pc) {
+            for (p, c) in self.p.iter_mut().zip(pc) {
                 *p += ap_relax * c;
             }
             for d in 0..3 {
@@ -460,9 +471,9 @@ impl SimpleGas {
         (star, du)
     }
 
-    /// The pressure correction p' from the starred velocities' mass imbalance (symmetric
-    /// positive definite, faer's sparse Cholesky with the symbolic factorisation kept), and
-    /// the largest cell imbalance, kg/s.
+    /// The pressure correction p' (into `self.pressure.solution`) from the starred
+    /// velocities' mass imbalance: symmetric positive definite, solved by
+    /// [`PressureSystem::solve`]. Returns the largest cell imbalance, kg/s.
     fn pressure_correction(
         &mut self,
         faces: &FaceFields,
@@ -470,11 +481,12 @@ impl SimpleGas {
         du: &[Vec<Real>; 3],
         transient: Option<&Transient>,
         drho_dp: Real,
-    ) -> Result<(Vec<Real>, Real), String> {
+    ) -> Result<Real, String> {
         let cells = self.geometry.cells();
         let g = &self.geometry;
-        let mut diag = vec![0.0; cells];
-        let mut rhs = vec![0.0; cells];
+        let sys = &mut self.pressure;
+        sys.reset(cells, &self.stencils);
+        let (diag, rhs) = (&mut sys.diag, &mut sys.rhs);
         // Mass flows with the starred velocities into and out of every cell.
         for d in 0..3 {
             for (f, &(lo, hi)) in self.face_cells[d].iter().enumerate() {
@@ -525,9 +537,7 @@ impl SimpleGas {
                 pin = Some(first);
             }
         }
-        // Entries (row, column) of the lower triangle, pushed in a fixed order.
-        let mut idx: Vec<(usize, usize)> = Vec::with_capacity(4 * cells);
-        let mut val: Vec<Real> = Vec::with_capacity(4 * cells);
+        // The faces' couplings, in the stencils' order (the system's pairs).
         for d in 0..3 {
             for st in &self.stencils[d] {
                 let f = st.face;
@@ -537,46 +547,15 @@ impl SimpleGas {
                 diag[st.lo] += a;
                 if st.hi != NONE {
                     diag[st.hi] += a;
-                    // (Lower triangle: the seam's faces join the last cell to the first.)
-                    idx.push((st.hi.max(st.lo), st.hi.min(st.lo)));
-                    val.push(-a);
+                    sys.coupling.push(a);
                 }
             }
         }
         if let Some(c) = pin {
             diag[c] *= 2.0;
         }
-        for (k, d) in diag.iter().enumerate() {
-            idx.push((k, k));
-            val.push(*d);
-        }
-        if self.pattern.is_none() {
-            let pairs: Vec<Pair<usize, usize>> =
-                idx.iter().map(|&(row, col)| Pair { row, col }).collect();
-            self.pattern = Some(
-                SymbolicSparseColMat::try_new_from_indices(cells, cells, &pairs)
-                    .map_err(|e| format!("pressure-correction pattern: {e:?}"))?,
-            );
-        }
-        let (pattern, order) = self.pattern.as_ref().expect("just built");
-        let mat = SparseColMat::<usize, Real>::new_from_argsort(pattern.clone(), order, &val)
-            .map_err(|e| format!("pressure-correction assembly: {e:?}"))?;
-        if self.symbolic.is_none() {
-            self.symbolic = Some(
-                SymbolicLlt::try_new(mat.symbolic(), Side::Lower)
-                    .map_err(|e| format!("symbolic factorisation: {e:?}"))?,
-            );
-        }
-        let llt = Llt::try_new_with_symbolic(
-            self.symbolic.clone().expect("just built"),
-            mat.as_ref(),
-            Side::Lower,
-        )
-        .map_err(|e| format!("pressure-correction factorisation: {e:?}"))?;
-        let mut sol = Mat::<Real>::from_fn(cells, 1, |i, _| rhs[i]);
-        llt.solve_in_place(sol.as_mut());
-        let pc: Vec<Real> = (0..cells).map(|k| sol[(k, 0)]).collect();
-        Ok((pc, worst))
+        sys.solve(&mut self.pattern, &mut self.symbolic)?;
+        Ok(worst)
     }
 
     /// A periodic grid's flow controller, after each SIMPLE iteration: the mean superficial
