@@ -40,7 +40,7 @@ pub use solver::SimpleGas;
 pub use tube::SimpleTubeGas;
 // The parts see one another's crate-private items.
 use geometry::*;
-use pressure::PressureSystem;
+use pressure::{PressureSystem, CG_FLOOR_OF_TOLERANCE};
 
 use faer::linalg::solvers::Solve;
 use faer::sparse::linalg::solvers::{Llt, SymbolicLlt};

@@ -387,6 +387,7 @@ impl SimpleGas {
         let drho_dp = pr.ideal_gas_pressure.map_or(0.0, |p0| pr.density / p0);
         // The step's first iteration factorises (see [`PressureSystem`]).
         self.pressure.new_step();
+        self.pressure.residual_floor = CG_FLOOR_OF_TOLERANCE * tol * inflow.abs();
         let mut report = SimpleReport {
             iterations: 0,
             mass_residual: Real::INFINITY,
