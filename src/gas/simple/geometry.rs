@@ -329,6 +329,15 @@ pub(super) struct FaceStencil {
     pub(super) partner: Option<(usize, Real, Real)>,
 }
 
+/// A face stencil's face, the cells beside it (hi NONE at the outlet) and its open area, m².
+#[derive(Debug, Clone, Copy)]
+pub(super) struct FaceLink {
+    pub(super) face: usize,
+    pub(super) lo: usize,
+    pub(super) hi: usize,
+    pub(super) area: Real,
+}
+
 /// One side of a face's control volume, across direction t.
 #[derive(Debug, Clone, Copy, Default)]
 pub(super) struct SideStencil {

@@ -28,6 +28,9 @@ pub struct SimpleGas {
     pub grain_velocity: Vec<[Real; 3]>,
     /// Each component's momentum stencils, in sweep order.
     pub(super) stencils: [Vec<FaceStencil>; 3],
+    /// Each stencil's face, cells and area alone, in the same order: what the pressure
+    /// correction reads, without dragging the whole stencils through the cache.
+    pub(super) links: [Vec<FaceLink>; 3],
     /// The cells beside every face (per direction).
     pub(super) face_cells: [Vec<(usize, usize)>; 3],
     pub(super) symbolic: Option<SymbolicLlt<usize>>,
@@ -68,7 +71,18 @@ impl SimpleGas {
                 })
                 .collect()
         });
-        let stencils = std::array::from_fn(|d| geometry.stencils(d));
+        let stencils: [Vec<FaceStencil>; 3] = std::array::from_fn(|d| geometry.stencils(d));
+        let links = std::array::from_fn(|d| {
+            stencils[d]
+                .iter()
+                .map(|st| FaceLink {
+                    face: st.face,
+                    lo: st.lo,
+                    hi: st.hi,
+                    area: st.area,
+                })
+                .collect()
+        });
         let face_cells = std::array::from_fn(|d| geometry.face_cells(d));
         Self {
             drag_law: Arc::new(ErgunWenYu::new(params.viscosity)),
@@ -80,6 +94,7 @@ impl SimpleGas {
             fed_solid: Vec::new(),
             grain_velocity: vec![[0.0; 3]; cells],
             stencils,
+            links,
             face_cells,
             symbolic: None,
             pattern: None,
@@ -392,12 +407,18 @@ impl SimpleGas {
             iterations: 0,
             mass_residual: Real::INFINITY,
         };
+        // The porosity holds over the step; an ideal gas's density follows the pressure
+        // from iteration to iteration.
+        self.update_density()?;
+        let mut faces = FaceFields {
+            porosity: self.on_faces(&self.porosity),
+            density: self.on_faces(&self.rho),
+        };
         for it in 0..max_iter {
-            self.update_density()?;
-            let faces = FaceFields {
-                porosity: self.on_faces(&self.porosity),
-                density: self.on_faces(&self.rho),
-            };
+            if it > 0 && pr.ideal_gas_pressure.is_some() {
+                self.update_density()?;
+                faces.density = self.on_faces(&self.rho);
+            }
             self.apply_inlet(&faces);
             let beta = self.beta();
             let (mut star, du) = self.predict_velocities(&faces, &beta, transient.as_ref());
@@ -409,10 +430,10 @@ impl SimpleGas {
                 *p += ap_relax * c;
             }
             for d in 0..3 {
-                for st in &self.stencils[d] {
-                    let f = st.face;
-                    let hi = if st.hi != NONE { pc[st.hi] } else { 0.0 };
-                    star[d][f] += du[d][f] * faces.porosity[d][f] * st.area * (pc[st.lo] - hi);
+                for l in &self.links[d] {
+                    let f = l.face;
+                    let hi = if l.hi != NONE { pc[l.hi] } else { 0.0 };
+                    star[d][f] += du[d][f] * faces.porosity[d][f] * l.area * (pc[l.lo] - hi);
                 }
             }
             self.vel = star;
@@ -543,14 +564,14 @@ impl SimpleGas {
         }
         // The faces' couplings, in the stencils' order (the system's pairs).
         for d in 0..3 {
-            for st in &self.stencils[d] {
-                let f = st.face;
+            for l in &self.links[d] {
+                let f = l.face;
                 let eps = faces.porosity[d][f];
-                let a = faces.density[d][f] * eps * eps * st.area * st.area * du[d][f];
+                let a = faces.density[d][f] * eps * eps * l.area * l.area * du[d][f];
                 // (The outlet's faces: p' = 0 beyond.)
-                diag[st.lo] += a;
-                if st.hi != NONE {
-                    diag[st.hi] += a;
+                diag[l.lo] += a;
+                if l.hi != NONE {
+                    diag[l.hi] += a;
                     sys.coupling.push(a);
                 }
             }
