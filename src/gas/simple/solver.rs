@@ -3,6 +3,16 @@
 
 use super::*;
 
+/// Buffers of one SIMPLE iteration: the starred velocities, each face's 1/a_P (relaxed),
+/// one component's momentum rows, the interphase coefficient of every cell.
+#[derive(Clone, Default)]
+pub(super) struct IterationScratch {
+    star: [Vec<Real>; 3],
+    du: [Vec<Real>; 3],
+    rows: Vec<Row>,
+    beta: Vec<Real>,
+}
+
 /// The SIMPLE gas on a staggered grid.
 #[derive(Clone)]
 pub struct SimpleGas {
@@ -36,6 +46,8 @@ pub struct SimpleGas {
     pub(super) symbolic: Option<SymbolicLlt<usize>>,
     /// Scratch of the flow controller: each axial plane's answer to G.
     pub(super) plane_answer: Vec<Real>,
+    /// The SIMPLE iteration's buffers (no state: refilled every iteration).
+    pub(super) scratch: IterationScratch,
     /// The pressure correction's working storage (and the factorisation of this step).
     pub(super) pressure: PressureSystem,
     /// The pressure-correction matrix's pattern and the order its values are pushed in
@@ -99,6 +111,7 @@ impl SimpleGas {
             symbolic: None,
             pattern: None,
             plane_answer: Vec::new(),
+            scratch: IterationScratch::default(),
             pressure: PressureSystem::default(),
             drive_gradient: 0.0,
             mean_superficial_velocity: params.inlet_velocity,
@@ -203,11 +216,12 @@ impl SimpleGas {
     }
 
     /// Interphase coefficient β at every cell from the current slip, kg/(m³ s).
-    pub(super) fn beta(&self) -> Vec<Real> {
+    pub(super) fn beta(&self, b: &mut Vec<Real>) {
         let g = &self.geometry;
-        let mut b = vec![0.0; g.cells()];
+        b.clear();
+        b.resize(g.cells(), 0.0);
         let Some(d) = self.params.drag_diameter else {
-            return b;
+            return;
         };
         for x in Geometry::each(g.n) {
             let c = g.cell(x);
@@ -222,7 +236,6 @@ impl SimpleGas {
             let per_solid = self.drag_law.slip_coefficient(eps, w, d, self.rho[c]);
             b[c] = (1.0 - eps) * per_solid.unwrap_or(0.0);
         }
-        b
     }
 
     /// The inlet's mass flux ρ0 U as interstitial u on the inlet's open faces.
@@ -289,13 +302,14 @@ impl SimpleGas {
         faces: &FaceFields,
         beta: &[Real],
         transient: Option<&Transient>,
-    ) -> Vec<Row> {
+        rows: &mut Vec<Row>,
+    ) {
         let g = &self.geometry;
         let hd = g.h[d];
         let mu = self.params.viscosity;
         let alpha = self.params.relax_velocity;
         let (vel, por, rho) = (&self.vel, &self.porosity, &self.rho);
-        let mut rows = Vec::with_capacity(self.stencils[d].len());
+        rows.clear();
         for st in &self.stencils[d] {
             let f = st.face;
             let eps_f = faces.porosity[d][f];
@@ -386,7 +400,6 @@ impl SimpleGas {
             row.b = src + (1.0 - alpha) * relaxed * vel[d][f];
             rows.push(row);
         }
-        rows
     }
 
     pub(super) fn iterate(
@@ -407,6 +420,8 @@ impl SimpleGas {
             iterations: 0,
             mass_residual: Real::INFINITY,
         };
+        // The iteration's buffers (taken, and given back at the end).
+        let mut sc = std::mem::take(&mut self.scratch);
         // The porosity holds over the step; an ideal gas's density follows the pressure
         // from iteration to iteration.
         self.update_density()?;
@@ -420,10 +435,10 @@ impl SimpleGas {
                 faces.density = self.on_faces(&self.rho);
             }
             self.apply_inlet(&faces);
-            let beta = self.beta();
-            let (mut star, du) = self.predict_velocities(&faces, &beta, transient.as_ref());
-            let worst =
-                self.pressure_correction(&faces, &star, &du, transient.as_ref(), drho_dp)?;
+            self.beta(&mut sc.beta);
+            self.predict_velocities(&faces, transient.as_ref(), &mut sc);
+            let (star, du) = (&mut sc.star, &sc.du);
+            let worst = self.pressure_correction(&faces, star, du, transient.as_ref(), drho_dp)?;
             let pc = &self.pressure.solution;
             // ---- corrections -------------------------------------------------------------
             for (p, c) in self.p.iter_mut().zip(pc) {
@@ -436,10 +451,10 @@ impl SimpleGas {
                     star[d][f] += du[d][f] * faces.porosity[d][f] * l.area * (pc[l.lo] - hi);
                 }
             }
-            self.vel = star;
+            std::mem::swap(&mut self.vel, star);
             // A periodic grid's controller: the flow's miss of its target counts as a mass
             // imbalance (of the whole section), so the iteration ends only with G converged.
-            let missed = self.control_flow(&faces, &du);
+            let missed = self.control_flow(&faces, du);
             report = SimpleReport {
                 iterations: it + 1,
                 mass_residual: (worst / inflow.abs().max(1e-300)).max(missed),
@@ -457,6 +472,7 @@ impl SimpleGas {
                 break;
             }
         }
+        self.scratch = sc;
         Ok(report)
     }
 
@@ -466,20 +482,29 @@ impl SimpleGas {
     fn predict_velocities(
         &self,
         faces: &FaceFields,
-        beta: &[Real],
         transient: Option<&Transient>,
-    ) -> ([Vec<Real>; 3], [Vec<Real>; 3]) {
-        let mut star = self.vel.clone();
-        // d(velocity)/d(pressure difference × area × ε) of each face: 1/a_P (0: fixed).
-        let mut du: [Vec<Real>; 3] = std::array::from_fn(|d| vec![0.0; self.vel[d].len()]);
+        sc: &mut IterationScratch,
+    ) {
+        let IterationScratch {
+            star,
+            du,
+            rows,
+            beta,
+        } = sc;
+        for d in 0..3 {
+            star[d].clone_from(&self.vel[d]);
+            // d(velocity)/d(pressure difference × area × ε) of each face: 1/a_P (0: fixed).
+            du[d].clear();
+            du[d].resize(self.vel[d].len(), 0.0);
+        }
         for d in 0..3 {
             if self.stencils[d].is_empty() {
                 continue;
             }
-            let rows = self.momentum(d, faces, beta, transient);
+            self.momentum(d, faces, beta, transient, rows);
             let s = &mut star[d];
             for _ in 0..MOMENTUM_SWEEPS {
-                for row in &rows {
+                for row in rows.iter() {
                     let mut acc = row.b;
                     for (&k, &a) in row.nb.iter().zip(&row.a) {
                         if k != NONE {
@@ -489,11 +514,10 @@ impl SimpleGas {
                     s[row.face] = acc * row.inv_diag;
                 }
             }
-            for row in &rows {
+            for row in rows.iter() {
                 du[d][row.face] = row.inv_diag;
             }
         }
-        (star, du)
     }
 
     /// The pressure correction p' (into `self.pressure.solution`) from the starred
