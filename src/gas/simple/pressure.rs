@@ -15,8 +15,9 @@ use faer::MatMut;
 
 /// CG stops when ‖r‖₂ ≤ this × ‖b‖₂: the correction then leaves a millionth of the
 /// imbalance it corrects, and the SIMPLE iteration converges as with the exact p'
-/// (`gas_bench`: 16.4 SIMPLE iterations per step at 1e-4, 1e-6, 1e-8, 1e-12 and with
-/// the direct solve of every iteration).
+/// (`gas_bench`, measured with the flow controller of before session 22: the same 16.4
+/// SIMPLE iterations per step at 1e-4, 1e-6, 1e-8, 1e-12 and with the direct solve of every
+/// iteration).
 const CG_RELATIVE_RESIDUAL: Real = 1e-6;
 /// Nor need CG go below this share of the SIMPLE iteration's own tolerance on the
 /// imbalance (late iterations correct imbalances near it): what is left is a thousandth of
@@ -63,14 +64,14 @@ impl PressureSystem {
     }
 
     /// Zeroed diagonal, right-hand side and couplings for `cells` cells and the interior
-    /// faces of `stencils` (their pairs recorded on the first call).
-    pub(super) fn reset(&mut self, cells: usize, stencils: &[Vec<FaceStencil>; 3]) {
+    /// faces among `links` (their pairs recorded on the first call).
+    pub(super) fn reset(&mut self, cells: usize, links: &[Vec<FaceLink>; 3]) {
         if self.pairs.is_empty() {
-            self.pairs = stencils
+            self.pairs = links
                 .iter()
                 .flatten()
-                .filter(|st| st.hi != NONE)
-                .map(|st| (st.lo, st.hi))
+                .filter(|l| l.hi != NONE)
+                .map(|l| (l.lo, l.hi))
                 .collect();
         }
         self.diag.clear();
@@ -181,9 +182,9 @@ impl PressureSystem {
             v.resize(n, 0.0);
         }
         self.residual.copy_from_slice(&self.rhs);
-        let target =
-            (CG_RELATIVE_RESIDUAL * dot(&self.rhs, &self.rhs).sqrt()).max(self.residual_floor);
-        if target == 0.0 || dot(&self.rhs, &self.rhs).sqrt() <= target {
+        let norm_b = dot(&self.rhs, &self.rhs).sqrt();
+        let target = (CG_RELATIVE_RESIDUAL * norm_b).max(self.residual_floor);
+        if target == 0.0 || norm_b <= target {
             return true; // b small enough: p' = 0
         }
         let llt = self.llt.take().expect("checked by the caller");

@@ -534,7 +534,7 @@ impl SimpleGas {
         let cells = self.geometry.cells();
         let g = &self.geometry;
         let sys = &mut self.pressure;
-        sys.reset(cells, &self.stencils);
+        sys.reset(cells, &self.links);
         let (diag, rhs) = (&mut sys.diag, &mut sys.rhs);
         // Mass flows with the starred velocities into and out of every cell.
         for d in 0..3 {
