@@ -9,7 +9,8 @@
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};
 
-use crate::summary::{Number, Summary};
+use crate::analysis::characteristic::characteristic_targets;
+use crate::summary::{Number, Summary, TargetRow};
 
 use crate::output::figures::{self, Curve, Panel};
 use crate::scene::{Scene, SceneError};
@@ -303,13 +304,13 @@ pub fn run_variants(
         .collect())
 }
 
-/// Run the sweep; returns the rows written to sweep.csv.
+/// Run the sweep; returns the rows written to sweep.csv and the rows of TARGETS.md measured.
 pub fn sweep(
     exe: &Path,
     scene_path: &Path,
     varies: &[Vary],
     opts: &SweepOptions,
-) -> Result<Vec<Option<Summary>>, SweepError> {
+) -> Result<SweepResult, SweepError> {
     let io = |p: &Path, e: &dyn std::fmt::Display| SweepError::Io {
         path: p.display().to_string(),
         reason: e.to_string(),
@@ -363,7 +364,32 @@ pub fn sweep(
     std::fs::write(&csv_path, csv).map_err(|e| io(&csv_path, &e))?;
     draw_curves(&opts.out_dir, scene_path, varies, &variants, &rows)
         .map_err(|e| io(&opts.out_dir, &e))?;
-    Ok(rows)
+    // The rows only a sweep measures (V6, V7, V9–V11), from a sweep of one setting.
+    let targets = match varies {
+        [only] => {
+            let points: Vec<(Real, &Summary)> = variants
+                .iter()
+                .zip(&rows)
+                .filter_map(|(v, r)| Some((leading_number(&v[0].1)?, r.as_ref()?)))
+                .filter(|(_, r)| r.completed())
+                .collect();
+            characteristic_targets(&only.path, &points)
+        }
+        _ => Vec::new(),
+    };
+    if !targets.is_empty() {
+        let path = opts.out_dir.join("targets.json");
+        let text = serde_json::to_string_pretty(&targets).map_err(|e| io(&path, &e))?;
+        std::fs::write(&path, text).map_err(|e| io(&path, &e))?;
+    }
+    Ok(SweepResult { rows, targets })
+}
+
+/// What a sweep measured: one summary per variant (None: no summary), and the TARGETS.md
+/// rows measured across its variants (also in `DIR/targets.json`).
+pub struct SweepResult {
+    pub rows: Vec<Option<Summary>>,
+    pub targets: Vec<TargetRow>,
 }
 
 /// The papers' characteristic points (superficial velocity m/s, hPa/m, grains in tube):

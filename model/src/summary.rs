@@ -169,6 +169,17 @@ pub struct PlugSummary {
     #[serde(deserialize_with = "nullable")]
     pub plug_rate_per_s: Real,
     pub plugs_observed_mid_tube: usize,
+    /// Plugs passing upward through six heights across the middle 60 % of the tube, per
+    /// second, as [height m, rate] (seed 000 fig. 9); empty where none passed.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub plug_passages_by_height: Vec<[Real; 2]>,
+    /// Relative change of that rate from the lowest height to the highest (least-squares
+    /// line through the counts), and its standard error (counts as independent Poisson
+    /// variables: an upper bound); absent where nothing passed.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub plug_rate_change_middle: Option<Real>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub plug_rate_change_middle_se: Option<Real>,
 }
 
 /// The gas's headline numbers.
@@ -197,6 +208,8 @@ pub struct TargetRow {
     pub id: String,
     pub what: String,
     pub measured: Option<Real>,
+    /// NaN (`null`) where the paper states a direction, not a number (V12).
+    #[serde(deserialize_with = "nullable")]
     pub paper: Real,
     pub band: [Real; 2],
     pub ratio: Option<Real>,
@@ -214,13 +227,14 @@ pub enum Number {
     PlugLength,
     PlugMinPorosity,
     PlugRate,
+    PlugRateChangeUpperBound,
     SimulatedTime,
     WallTime,
 }
 
 impl Number {
     /// Every number, in the order of the summary.
-    pub const ALL: [Number; 10] = [
+    pub const ALL: [Number; 11] = [
         Number::PressureDrop,
         Number::ParticlesInTube,
         Number::MassOutflow,
@@ -229,6 +243,7 @@ impl Number {
         Number::PlugLength,
         Number::PlugMinPorosity,
         Number::PlugRate,
+        Number::PlugRateChangeUpperBound,
         Number::SimulatedTime,
         Number::WallTime,
     ];
@@ -244,6 +259,7 @@ impl Number {
             Number::PlugLength => "plug_length_m",
             Number::PlugMinPorosity => "plug_min_porosity",
             Number::PlugRate => "plug_rate_per_s",
+            Number::PlugRateChangeUpperBound => "plug_rate_change_middle_upper_2se",
             Number::SimulatedTime => "simulated_time_s",
             Number::WallTime => "wall_time_s",
         }
@@ -275,6 +291,11 @@ impl Number {
             Number::PlugLength => plugs.and_then(|p| p.plug_length_m),
             Number::PlugMinPorosity => plugs.and_then(|p| p.plug_min_porosity),
             Number::PlugRate => plugs.map(|p| p.plug_rate_per_s),
+            // The change of the plug rate along the tube plus two standard errors: below
+            // zero, the rate falls with height beyond the counting noise.
+            Number::PlugRateChangeUpperBound => plugs.and_then(|p| {
+                Some(p.plug_rate_change_middle? + 2.0 * p.plug_rate_change_middle_se?)
+            }),
             Number::SimulatedTime => Some(s.simulated_time_s),
             Number::WallTime => Some(s.wall_time_s),
         };
@@ -403,6 +424,9 @@ mod tests {
             plug_min_porosity: Some(0.45),
             plug_rate_per_s: 1.0,
             plugs_observed_mid_tube: 3,
+            plug_passages_by_height: vec![[0.1, 2.0], [0.2, 1.0]],
+            plug_rate_change_middle: Some(-0.5),
+            plug_rate_change_middle_se: Some(0.1),
         });
         s.profiles = Some(serde_json::json!({}));
         s.targets = Some(Vec::new());

@@ -185,7 +185,11 @@ fn print_outcome(sm: &Summary, out_dir: &std::path::Path) {
                 t.measured
                     .map(|m| format!("{m:.4}"))
                     .unwrap_or_else(|| "—".into()),
-                format!("{}", t.paper),
+                if t.paper.is_nan() {
+                    "falls".to_string()
+                } else {
+                    format!("{}", t.paper)
+                },
                 format!("{}–{}", t.band[0], t.band[1]),
                 if t.inside { "yes" } else { "no" }
             );

@@ -75,7 +75,20 @@ pub fn main(a: SweepArgs) -> ExitCode {
     };
     plugflow::children::install_stop_handler();
     match sweep::sweep(&exe, &scene, &varies, &opts) {
-        Ok(rows) => {
+        Ok(sweep::SweepResult { rows, targets }) => {
+            for t in &targets {
+                say!(
+                    "{:<4} {:<50} measured {} band {}–{}: {}",
+                    t.id,
+                    t.what,
+                    t.measured
+                        .map(|m| format!("{m:.4}"))
+                        .unwrap_or_else(|| "—".into()),
+                    t.band[0],
+                    t.band[1],
+                    if t.inside { "inside" } else { "outside" }
+                );
+            }
             let failed = rows
                 .iter()
                 .filter(|r| !r.as_ref().is_some_and(|r| r.completed()))

@@ -7,7 +7,7 @@ use serde_json::json;
 
 use super::sampling::{outflow_mass, Sampling};
 use super::RunError;
-use crate::analysis::plugs::{median, PlugObservation};
+use crate::analysis::plugs::{median, passage_rates, PlugObservation};
 use crate::analysis::profiles::{local_minima, ProfileResult, Profiles};
 use crate::analysis::targets;
 use crate::dem::DemConfig;
@@ -101,6 +101,11 @@ pub fn summarize(e: &Ending) -> Summary {
                 tr.observations.iter().filter(|p| mid(p.centre)).collect();
             let tracks: std::collections::HashSet<u64> = at_mid.iter().map(|p| p.track).collect();
             let span = (dem.time() - s.settle).max(1e-12);
+            // Seed 000 fig. 9: passages through six heights across the middle 60 %.
+            let heights: Vec<Real> = (0..6)
+                .map(|k| tube.length * (0.25 + 0.1 * k as Real))
+                .collect();
+            let passages = passage_rates(&tr.observations, &heights, dem.time() - s.settle);
             Some(PlugSummary {
                 plug_velocity_m_s: median(at_mid.iter().filter_map(|p| p.velocity).collect()),
                 plug_max_granular_velocity_m_s: median(
@@ -110,6 +115,12 @@ pub fn summarize(e: &Ending) -> Summary {
                 plug_min_porosity: median(at_mid.iter().map(|p| p.min_porosity).collect()),
                 plug_rate_per_s: tracks.len() as Real / span,
                 plugs_observed_mid_tube: tracks.len(),
+                plug_passages_by_height: passages
+                    .as_ref()
+                    .map(|p| p.rates.clone())
+                    .unwrap_or_default(),
+                plug_rate_change_middle: passages.as_ref().map(|p| p.change),
+                plug_rate_change_middle_se: passages.as_ref().map(|p| p.change_se),
             })
         }
         _ => None,
