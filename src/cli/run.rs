@@ -83,10 +83,6 @@ pub fn main(a: RunArgs) -> ExitCode {
             eprintln!("error: {e}");
             ExitCode::from(2)
         }
-        Err(e @ RunError::NotUnderMpi { .. }) => {
-            eprintln!("error: {e}");
-            ExitCode::from(2)
-        }
         Err(e @ RunError::Interrupted { .. }) => {
             eprintln!("{e}");
             ExitCode::from(130)

@@ -452,6 +452,9 @@ impl Beginning {
 }
 
 /// Write a checkpoint of the run as it stands (between samples: no advance is under way).
+/// Under MPI every rank calls it (the engine's state is taken collectively) and only the
+/// rank that `writes` does: the other ranks' sampling, gas and counters are the same.
+#[allow(clippy::too_many_arguments)]
 pub(super) fn save(
     out_dir: &Path,
     scene: &Scene,
@@ -460,6 +463,7 @@ pub(super) fn save(
     sampling: &Sampling,
     at: &Progress,
     wall_time_s: f64,
+    writes: bool,
 ) -> Result<PathBuf, RunError> {
     let failed = |reason: String| RunError::Io {
         path: folder(out_dir).display().to_string(),
@@ -482,5 +486,8 @@ pub(super) fn save(
             .map_err(|e| failed(e.to_string()))?,
         sampling: sampling.clone(),
     };
-    write(out_dir, &c)
+    match writes {
+        true => write(out_dir, &c),
+        false => Ok(folder(out_dir).join(format!("checkpoint_{:012}.pfc", c.steps_done))),
+    }
 }

@@ -62,9 +62,6 @@ pub enum RunError {
     /// words.
     #[error("rank {rank}: {message}")]
     OtherRank { rank: usize, message: String },
-    /// What a run on several MPI ranks cannot do yet.
-    #[error("{what} is not available under MPI ({ranks} ranks) yet: run on one rank")]
-    NotUnderMpi { what: &'static str, ranks: usize },
 }
 
 /// How to run.
@@ -97,12 +94,6 @@ pub struct RunOutcome {
 /// Run a scene to its end.
 pub fn run(scene: &Scene, opts: &RunOptions) -> Result<RunOutcome, RunError> {
     let world = setup::ranks::launched();
-    if world.size > 1 && (opts.resume.is_some() || opts.from.is_some()) {
-        return Err(RunError::NotUnderMpi {
-            what: "starting from a checkpoint (--resume, --from)",
-            ranks: world.size,
-        });
-    }
     // The checkpoints it begins from, checked against the scene before anything is touched.
     let beginning =
         checkpoint::Beginning::read(scene, opts.resume.as_deref(), opts.from.as_deref())?;
@@ -264,7 +255,10 @@ pub fn run(scene: &Scene, opts: &RunOptions) -> Result<RunOutcome, RunError> {
                            sampling: &Sampling,
                            at: &Progress| {
         let wall_so_far = at.wall_before + wall.elapsed().as_secs_f64();
-        checkpoint::save(&out_dir, scene, dem, gas, sampling, at, wall_so_far)
+        // (Under MPI every rank takes the engine's state, a collective call; rank 0 writes
+        // it, and a failure to write stops every rank.)
+        let saved = checkpoint::save(&out_dir, scene, dem, gas, sampling, at, wall_so_far, lead);
+        agreed(&*dem, saved)
     };
     while at.steps_done < total_steps {
         // Before the steps of the next sample: a run stopped for room ends where run.h5 does.

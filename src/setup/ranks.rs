@@ -13,7 +13,7 @@ pub fn launched() -> Ranks {
 }
 
 /// What a scene must be to run on `ranks.size` ranks: the DEM on an engine that runs
-/// under MPI (LIGGGHTS) in this process, no checkpoints yet, and a user's LIGGGHTS input
+/// under MPI (LIGGGHTS) in this process, and a user's LIGGGHTS input
 /// whose `processors` grid has as many cells as there are ranks.
 pub fn check_ranks(scene: &Scene, ranks: Ranks) -> Result<(), SceneError> {
     if ranks.size <= 1 {
@@ -38,15 +38,6 @@ pub fn check_ranks(scene: &Scene, ranks: Ranks) -> Result<(), SceneError> {
             format!(
                 "an engine in a child process cannot join the {n} ranks mpirun started; \
                  set it false under MPI"
-            ),
-        ));
-    }
-    if scene.file.output.checkpoint_interval.is_some() {
-        return Err(SceneError::field(
-            "output.checkpoint_interval",
-            format!(
-                "checkpoints are not written under MPI yet ({n} ranks); run on one rank \
-                 to write them"
             ),
         ));
     }

@@ -321,13 +321,29 @@ impl Liggghts {
     /// (grains, contact and wall histories in the per-atom data of their fixes, the
     /// insertion fix's counters, the fluid force of the last exchange in `pf_extf`) and
     /// plugflow's mirrors of it.
+    ///
+    /// Under MPI every rank calls it (`write_restart` is collective): LIGGGHTS's rank 0
+    /// gathers every rank's grains and histories into one file at rank 0's path, and rank 0
+    /// alone writes the run's checkpoint, so the other ranks hand back their mirrors without
+    /// the file. The mirrors are the same on every rank there (the ids inserted and the feed
+    /// and outflow counters are kept over all ranks). The grains seen under MPI are every tag
+    /// up to the largest (see [`Liggghts::count_fed_over_ranks`]): written out as such, so
+    /// that the run resumes on one process (or any rank count) counting the feed alike.
     pub fn save(&mut self) -> Result<Vec<u8>, EngineError> {
         self.refuse_user_input()?;
-        self.refuse_ranks()?;
         let path = self.workdir.join("checkpoint.restart");
         self.command(&format!("write_restart {}", path.display()))?;
-        let restart = std::fs::read(&path).map_err(|e| format!("{}: {e}", path.display()))?;
+        let read = match self.ranks.leads() {
+            true => std::fs::read(&path).map_err(|e| format!("{}: {e}", path.display())),
+            false => Ok(Vec::new()),
+        };
+        let restart = self.agreed(read)?;
         let _ = std::fs::remove_file(&path);
+        if self.world {
+            for id in 1..=self.global_max_id()? {
+                self.first_sight(id);
+            }
+        }
         Ok(SavedState {
             steps: self.steps,
             flow: self.flow,
@@ -346,10 +362,13 @@ impl Liggghts {
     /// reads the restart file in place of `create_box`; the scene's other commands (laws,
     /// walls, the inlet's fixes under the same ids, so LIGGGHTS hands them their restart
     /// data) follow as in a new run.
+    ///
+    /// Under MPI every rank reads the checkpoint rank 0 wrote and calls it: `read_restart`
+    /// is collective (LIGGGHTS's rank 0 reads the file and hands each rank its grains), and
+    /// the mirrors are the same on every rank.
     pub fn restore(&mut self, bytes: &[u8]) -> Result<(), EngineError> {
         self.refuse_user_input()?;
-        self.refuse_ranks()?;
-        let st = SavedState::decode(bytes)?;
+        let st = self.agreed(SavedState::decode(bytes))?;
         let path = self.workdir.join("resume.restart");
         std::fs::write(&path, &st.restart).map_err(|e| format!("{}: {e}", path.display()))?;
         // `clear` empties the instance (atoms, fixes, settings) but keeps it and its log:
@@ -381,19 +400,6 @@ impl Liggghts {
                         own `write_restart` in the input, or the scene's mapping"
                     .into(),
             );
-        }
-        Ok(())
-    }
-
-    /// A checkpoint holds plugflow's mirrors of one process's grains (which ids were
-    /// seen, inserted): not written under more than one rank yet.
-    fn refuse_ranks(&self) -> Result<(), EngineError> {
-        if self.ranks.size > 1 {
-            return Err(format!(
-                "field `output.checkpoint_interval`: checkpoints of LIGGGHTS under MPI \
-                 ({} ranks) are not supported yet; run on one rank to write them",
-                self.ranks.size
-            ));
         }
         Ok(())
     }
