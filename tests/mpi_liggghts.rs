@@ -461,3 +461,128 @@ fn last_snapshot(dir: &Path) -> Vec<(u64, [f64; 3])> {
     let name = g.member_names().unwrap().into_iter().max().unwrap();
     snapshot(&g.group(&name).unwrap())
 }
+
+/// A run its process cannot finish still leaves its summary, as failed, with what it
+/// measured up to its last sample, and a readable run.h5. (1) LIGGGHTS's `error->all`: a
+/// user's input whose thermo variable divides by zero at step 5000 (0.025 s, after the
+/// samples at 0.01 and 0.02 s) makes LIGGGHTS print `ERROR: …` and call `exit(1)` on every
+/// rank, in one process and under 2 ranks. (2) A rank killed outright (SIGKILL, as the
+/// kernel's out-of-memory killer does): mpirun ends the other with SIGTERM, and rank 0,
+/// whichever collective call it waits in, writes the summary from its signal thread.
+#[test]
+fn e_a_run_ended_by_its_engine_or_a_dead_rank_leaves_a_failed_summary() {
+    let _g = SERIAL.lock().unwrap_or_else(|p| p.into_inner());
+    let dir = out_dir("ended");
+    std::fs::create_dir_all(&dir).unwrap();
+    let user = root().join("cases/liggghts_user");
+    let input = std::fs::read_to_string(user.join("in.liggghts")).unwrap();
+    let input = input.replace(
+        "\nrun 1",
+        "\nvariable bad equal 1/(step-5000)\nthermo_style custom step v_bad\nrun 1",
+    );
+    assert!(input.contains("v_bad"));
+    std::fs::write(dir.join("in.liggghts"), input).unwrap();
+    let scene = std::fs::read_to_string(user.join("scene.toml"))
+        .unwrap()
+        .replace("duration = \"2 s\"", "duration = \"0.05 s\"")
+        .replace("settling_time = \"1 s\"", "settling_time = \"0 s\"");
+    std::fs::write(dir.join("scene.toml"), scene).unwrap();
+    let scene = dir.join("scene.toml");
+    let samples = |out: &Path| -> Vec<f64> {
+        let f = hdf5::File::open(out.join("run.h5")).unwrap();
+        f.dataset("time").unwrap().read_raw().unwrap()
+    };
+    for ranks in [None, Some(2)] {
+        let out = dir.join(format!("out_{ranks:?}"));
+        let args = [
+            "run",
+            scene.to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+            "--quiet",
+        ];
+        let o = match ranks {
+            Some(n) => mpirun(n, &args),
+            None => std::process::Command::new(env!("CARGO_BIN_EXE_plugflow"))
+                .args(args)
+                .output()
+                .unwrap(),
+        };
+        let text = said(&o);
+        assert_eq!(o.status.code(), Some(1), "{ranks:?}: {text}");
+        let s = common::read_summary(&out);
+        let status = s["status"].as_str().unwrap();
+        assert!(
+            status.starts_with("failed: the engine ended the process (ERROR: Divide by 0"),
+            "{ranks:?}: {status}"
+        );
+        assert_eq!(s["simulated_time_s"], 0.02, "{ranks:?}: {s}");
+        assert_eq!(samples(&out), [0.01, 0.02], "{ranks:?}: run.h5");
+        let log = std::fs::read_to_string(out.join("log.plugflow")).unwrap();
+        assert!(log.contains("error: the run did not finish"), "{log}");
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+
+    // (2) Rank 1 killed after 10 samples of the settling bed.
+    let out = out_dir("killed");
+    let bed = root().join("tests/scenes/mpi_bed.toml");
+    let mut job = std::process::Command::new("mpirun")
+        .env("OMPI_ALLOW_RUN_AS_ROOT", "1")
+        .env("OMPI_ALLOW_RUN_AS_ROOT_CONFIRM", "1")
+        .args(["--oversubscribe", "-np", "2"])
+        .arg(env!("CARGO_BIN_EXE_plugflow"))
+        .args(["run", bed.to_str().unwrap(), "--set", "dem.engine=liggghts"])
+        .args(["--duration", "5", "--out", out.to_str().unwrap(), "--quiet"])
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::null())
+        .spawn()
+        .unwrap();
+    let rows =
+        || std::fs::read_to_string(out.join("timeseries.csv")).map_or(0, |t| t.lines().count());
+    let start = std::time::Instant::now();
+    while rows() < 11 {
+        assert!(
+            start.elapsed().as_secs() < 120,
+            "no 10 samples in 2 minutes"
+        );
+        assert!(job.try_wait().unwrap().is_none(), "the job ended early");
+        std::thread::sleep(std::time::Duration::from_millis(100));
+    }
+    let rank1 = rank_pid(&out, 1).expect("rank 1's process");
+    // SAFETY: kill(2) on a process of this test's job.
+    assert_eq!(unsafe { libc::kill(rank1, libc::SIGKILL) }, 0);
+    let status = job.wait().unwrap();
+    assert!(!status.success());
+    let s = common::read_summary(&out);
+    let said_status = s["status"].as_str().unwrap();
+    assert!(
+        said_status.starts_with("failed: stopped by a signal on 2 ranks"),
+        "{said_status}"
+    );
+    let t = s["simulated_time_s"].as_f64().unwrap();
+    assert!(t >= 0.01, "{s}");
+    let f = hdf5::File::open(out.join("run.h5")).expect("run.h5 readable");
+    let times: Vec<f64> = f.dataset("time").unwrap().read_raw().unwrap();
+    assert!(times.len() >= 10, "{} samples", times.len());
+    let _ = std::fs::remove_dir_all(&out);
+}
+
+/// The pid of the plugflow process of `rank` in the job writing into `out`.
+fn rank_pid(out: &Path, rank: usize) -> Option<i32> {
+    let want_rank = format!("OMPI_COMM_WORLD_RANK={rank}");
+    let want_out = out.to_str().unwrap();
+    std::fs::read_dir("/proc").ok()?.find_map(|e| {
+        let e = e.ok()?;
+        let pid: i32 = e.file_name().to_str()?.parse().ok()?;
+        let cmdline = std::fs::read(e.path().join("cmdline")).ok()?;
+        let cmdline = String::from_utf8_lossy(&cmdline);
+        if !cmdline.contains(want_out) || !cmdline.starts_with(env!("CARGO_BIN_EXE_plugflow")) {
+            return None;
+        }
+        let env = std::fs::read(e.path().join("environ")).ok()?;
+        String::from_utf8_lossy(&env)
+            .split('\0')
+            .any(|v| v == want_rank)
+            .then_some(pid)
+    })
+}

@@ -63,7 +63,9 @@ pub fn main(a: RunArgs) -> ExitCode {
     // Ctrl-C / SIGTERM: end at the next sample with every output written. (A second
     // signal while it finishes changes nothing; failing to install it only loses this.)
     if let Err(e) = ctrlc::set_handler(|| {
-        plugflow::run::INTERRUPT.store(true, std::sync::atomic::Ordering::Relaxed)
+        plugflow::run::INTERRUPT.store(true, std::sync::atomic::Ordering::Relaxed);
+        // Under MPI a rank may wait for a dead one for ever: the summary now, as failed.
+        plugflow::run::last_words::on_stop_signal();
     }) {
         eprintln!("warning: no Ctrl-C handler ({e}); an interrupt will lose the summary");
     }

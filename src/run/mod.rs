@@ -6,6 +6,7 @@
 
 pub mod checkpoint;
 mod gathered;
+pub mod last_words;
 mod report;
 mod run_log;
 mod sampling;
@@ -125,6 +126,11 @@ pub fn run(scene: &Scene, opts: &RunOptions) -> Result<RunOutcome, RunError> {
         env!("CARGO_PKG_VERSION"),
         scene.file.name
     ));
+    // An engine that ends the process (or, under MPI, a rank that dies) still leaves the
+    // summary of the last sample: armed before the engine is built (see `last_words`),
+    // disarmed however this function returns.
+    last_words::arm(&out_dir, world.rank, world.size);
+    let _disarm = last_words::Disarm;
     let Setup {
         config: cfg,
         engine: mut dem,
@@ -323,6 +329,16 @@ pub fn run(scene: &Scene, opts: &RunOptions) -> Result<RunOutcome, RunError> {
                 break;
             }
         };
+        last_words::update(summarize(&Ending {
+            scene,
+            cfg: &cfg,
+            dem: view,
+            gas: gas.as_ref(),
+            sampling: &sampling,
+            profiles: None,
+            status: String::new(),
+            wall_time: at.wall_before + wall.elapsed().as_secs_f64(),
+        }));
         if snapshot_due {
             at.snapshot_times.push(dem.time());
         }

@@ -154,6 +154,7 @@ impl Liggghts {
         // its subdomain.
         let world = plugflow_coupling::ranks::launcher().is_some();
         let (lmp, ranks) = Self::open(&workdir, world)?;
+        live_files(|live| live.push((workdir.clone(), None)));
         let mut me = Self {
             lmp,
             ranks,
@@ -866,14 +867,51 @@ fn preflight(dir: &std::path::Path, commands: &[String]) -> Result<(), String> {
 impl Drop for Liggghts {
     fn drop(&mut self) {
         self.close();
-        // The run asked to keep LIGGGHTS's own log: beside its other outputs.
-        if let Some(dir) = &self.keep_log {
-            for f in ["log.liggghts", "log2.liggghts"] {
-                let _ = std::fs::copy(self.workdir.join(f), dir.join(f));
+        live_files(|live| live.retain(|(w, _)| w != &self.workdir));
+        keep_logs(&self.workdir, self.keep_log.as_deref());
+    }
+}
+
+/// The run asked to keep LIGGGHTS's own logs: beside its other outputs. Then the working
+/// folder goes.
+fn keep_logs(workdir: &std::path::Path, keep: Option<&std::path::Path>) {
+    if let Some(dir) = keep {
+        for f in ["log.liggghts", "log2.liggghts"] {
+            let _ = std::fs::copy(workdir.join(f), dir.join(f));
+        }
+    }
+    let _ = std::fs::remove_dir_all(workdir);
+}
+
+/// The working folders of the instances alive in this process, each with where its logs
+/// go. LIGGGHTS's `error->all` (an input error met at run time) prints `ERROR: …` and calls
+/// `exit(1)`, past every `Drop`: an `atexit` hook then keeps the logs, the `ERROR` line
+/// with them, beside the run's outputs (the run's own hook, registered before, reads them
+/// after) and removes the folders.
+type LiveFiles = Vec<(PathBuf, Option<PathBuf>)>;
+static LIVE: Mutex<LiveFiles> = Mutex::new(Vec::new());
+
+fn live_files(f: impl FnOnce(&mut LiveFiles)) {
+    static HOOK: std::sync::Once = std::sync::Once::new();
+    HOOK.call_once(|| {
+        // SAFETY: registers a plain extern "C" function (glibc runs it at exit, or when
+        // this library is unloaded, by then with no instance left).
+        unsafe {
+            libc::atexit(keep_logs_on_exit);
+        }
+    });
+    f(&mut LIVE.lock().unwrap_or_else(|p| p.into_inner()));
+}
+
+extern "C" fn keep_logs_on_exit() {
+    // (Nothing may unwind out of an atexit hook; a lock held mid-update is skipped.)
+    let _ = std::panic::catch_unwind(|| {
+        if let Ok(live) = LIVE.try_lock() {
+            for (workdir, keep) in live.iter() {
+                keep_logs(workdir, keep.as_deref());
             }
         }
-        let _ = std::fs::remove_dir_all(&self.workdir);
-    }
+    });
 }
 
 /// The mapped input's `create_box` line, which a restart file takes the place of.
@@ -987,6 +1025,13 @@ fn engine_error(message: EngineError) -> BackendError {
 impl DemBackend for Liggghts {
     fn keep_log(&mut self, dir: &std::path::Path) -> Result<(), BackendError> {
         self.keep_log = Some(dir.to_path_buf());
+        live_files(|live| {
+            for (w, keep) in live.iter_mut() {
+                if w == &self.workdir {
+                    *keep = Some(dir.to_path_buf());
+                }
+            }
+        });
         Ok(())
     }
 
