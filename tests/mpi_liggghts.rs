@@ -466,9 +466,11 @@ fn last_snapshot(dir: &Path) -> Vec<(u64, [f64; 3])> {
 /// measured up to its last sample, and a readable run.h5. (1) LIGGGHTS's `error->all`: a
 /// user's input whose thermo variable divides by zero at step 5000 (0.025 s, after the
 /// samples at 0.01 and 0.02 s) makes LIGGGHTS print `ERROR: …` and call `exit(1)` on every
-/// rank, in one process and under 2 ranks. (2) A rank killed outright (SIGKILL, as the
-/// kernel's out-of-memory killer does): mpirun ends the other with SIGTERM, and rank 0,
-/// whichever collective call it waits in, writes the summary from its signal thread.
+/// rank, in one process and under 2 ranks. (3) LIGGGHTS's `error->one` (the division in a
+/// per-grain variable), which calls `MPI_Abort`: the rank's words reach the summary.
+/// (2) A rank killed outright (SIGKILL, as the kernel's out-of-memory killer does): mpirun
+/// ends the other with SIGTERM, and rank 0, whichever collective call it waits in, writes
+/// the summary from its signal thread.
 #[test]
 fn e_a_run_ended_by_its_engine_or_a_dead_rank_leaves_a_failed_summary() {
     let _g = SERIAL.lock().unwrap_or_else(|p| p.into_inner());
@@ -520,6 +522,58 @@ fn e_a_run_ended_by_its_engine_or_a_dead_rank_leaves_a_failed_summary() {
         assert_eq!(samples(&out), [0.01, 0.02], "{ranks:?}: run.h5");
         let log = std::fs::read_to_string(out.join("log.plugflow")).unwrap();
         assert!(log.contains("error: the run did not finish"), "{log}");
+    }
+    // (3) LIGGGHTS's `error->one`: the same division in a per-grain variable, met on each
+    // rank alone, which calls `MPI_Abort`: the shim's `MPI_Abort` leaves the rank's words,
+    // mpirun ends the others, and a survivor writes the summary with them.
+    let input = std::fs::read_to_string(dir.join("in.liggghts"))
+        .unwrap()
+        .replace(
+            "variable bad equal 1/(step-5000)\nthermo_style custom step v_bad",
+            "variable bad atom 1/(step-5000)\ncompute badsum all reduce sum v_bad\n\
+             thermo_style custom step c_badsum",
+        );
+    assert!(input.contains("c_badsum"));
+    std::fs::write(dir.join("in.liggghts"), input).unwrap();
+    for ranks in [None, Some(2)] {
+        let out = dir.join(format!("out_one_{ranks:?}"));
+        let args = [
+            "run",
+            scene.to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+            "--quiet",
+        ];
+        let o = match ranks {
+            Some(n) => mpirun(n, &args),
+            None => std::process::Command::new(env!("CARGO_BIN_EXE_plugflow"))
+                .args(args)
+                .output()
+                .unwrap(),
+        };
+        let text = said(&o);
+        assert!(!o.status.success(), "{text}");
+        assert!(
+            text.contains(": ERROR on proc "),
+            "the words on stderr: {text}"
+        );
+        let s = common::read_summary(&out);
+        let status = s["status"].as_str().unwrap();
+        // On one process the shim ends it as `error->all` would (no one else to abort).
+        let how = match ranks {
+            None => "failed: the engine ended the process (rank 0: ERROR on proc 0: ",
+            Some(_) => "failed: rank ",
+        };
+        assert!(
+            status.starts_with(how)
+                && status.contains("Divide by 0")
+                && (ranks.is_none()
+                    || status.contains("mpirun ended every rank when that one aborted")),
+            "{ranks:?}: {status}"
+        );
+        assert_eq!(s["simulated_time_s"], 0.02, "{s}");
+        assert_eq!(samples(&out), [0.01, 0.02], "run.h5");
+        assert!(out.join("log.liggghts").exists());
     }
     let _ = std::fs::remove_dir_all(&dir);
 

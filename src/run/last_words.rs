@@ -41,6 +41,18 @@ pub fn arm(out_dir: &Path, rank: usize, ranks: usize) {
             libc::atexit(on_exit);
         }
     });
+    // An earlier run's dead rank speaks no more (a resumed run keeps its folder).
+    if rank == 0 {
+        if let Ok(entries) = std::fs::read_dir(out_dir) {
+            for e in entries.flatten() {
+                let name = e.file_name();
+                let name = name.to_string_lossy();
+                if name.starts_with("last_words_rank") && name.ends_with(".txt") {
+                    let _ = std::fs::remove_file(e.path());
+                }
+            }
+        }
+    }
     *lock() = Some(Armed {
         out_dir: out_dir.to_path_buf(),
         summary: None,
@@ -79,12 +91,18 @@ pub fn on_stop_signal() {
     let Some(a) = guard.as_ref().filter(|a| a.ranks > 1) else {
         return;
     };
-    let why = format!(
-        "stopped by a signal on {} ranks (rank {} wrote this): mpirun ends every rank with \
-         SIGTERM when one dies (its last words are in mpirun's output and `log.liggghts`), \
-         or the run was asked to stop and the ranks did not reach its end together",
-        a.ranks, a.rank
-    );
+    let why = match dead_ranks_words(&a.out_dir) {
+        Some(words) => format!(
+            "{words} (rank {} wrote this: mpirun ended every rank when that one aborted)",
+            a.rank
+        ),
+        None => format!(
+            "stopped by a signal on {} ranks (rank {} wrote this): mpirun ends every rank \
+             with SIGTERM when one dies (its last words, if any, are in mpirun's output), or \
+             the run was asked to stop and the ranks did not reach its end together",
+            a.ranks, a.rank
+        ),
+    };
     write_failed(a, &why, a.rank != 0);
 }
 
@@ -101,7 +119,8 @@ extern "C" fn on_exit() {
         let Some(a) = guard.take() else {
             return;
         };
-        let words = engine_last_words(&a.out_dir)
+        let words = dead_ranks_words(&a.out_dir)
+            .or_else(|| engine_last_words(&a.out_dir))
             .unwrap_or_else(|| "no `ERROR` line in the engine's log".to_string());
         let why = format!("the engine ended the process ({words})");
         eprintln!(
@@ -117,6 +136,24 @@ extern "C" fn on_exit() {
             }
         }
     });
+}
+
+/// The words a rank left before it aborted the job (the LIGGGHTS shim's `MPI_Abort`).
+fn dead_ranks_words(out_dir: &Path) -> Option<String> {
+    let mut words: Vec<String> = std::fs::read_dir(out_dir)
+        .ok()?
+        .filter_map(|e| {
+            let e = e.ok()?;
+            let name = e.file_name();
+            let name = name.to_str()?;
+            (name.starts_with("last_words_rank") && name.ends_with(".txt"))
+                .then(|| std::fs::read_to_string(e.path()).ok())
+                .flatten()
+                .map(|t| t.trim().to_string())
+        })
+        .collect();
+    words.sort();
+    (!words.is_empty()).then(|| words.join("; "))
 }
 
 /// The engine's `ERROR` line in the logs it keeps beside the run's outputs.

@@ -141,10 +141,9 @@ pub fn run(scene: &Scene, opts: &RunOptions) -> Result<RunOutcome, RunError> {
     let ranks = dem.ranks();
     // The grains of all ranks, gathered at each sample (None: one process, read directly).
     let mut gathered = (ranks.size > 1).then(gathered::Gathered::default);
-    let kept = match lead {
-        true => dem.keep_log(&out_dir),
-        false => Ok(()),
-    };
+    // (Every rank: under MPI rank 0 keeps the logs, and a rank that meets an error alone
+    // leaves its last words there.)
+    let kept = dem.keep_log(&out_dir);
     if let Err(e) = kept {
         log.line(&format!(
             "warning: the engine's own log cannot be kept: {e}"

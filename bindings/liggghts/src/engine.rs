@@ -154,7 +154,14 @@ impl Liggghts {
         // its subdomain.
         let world = plugflow_coupling::ranks::launcher().is_some();
         let (lmp, ranks) = Self::open(&workdir, world)?;
-        live_files(|live| live.push((workdir.clone(), None)));
+        live_files(|live| {
+            live.push(LiveFiles {
+                workdir: workdir.clone(),
+                keep: None,
+                rank: ranks.rank,
+                alone: ranks.size == 1,
+            })
+        });
         let mut me = Self {
             lmp,
             ranks,
@@ -867,15 +874,15 @@ fn preflight(dir: &std::path::Path, commands: &[String]) -> Result<(), String> {
 impl Drop for Liggghts {
     fn drop(&mut self) {
         self.close();
-        live_files(|live| live.retain(|(w, _)| w != &self.workdir));
-        keep_logs(&self.workdir, self.keep_log.as_deref());
+        live_files(|live| live.retain(|l| l.workdir != self.workdir));
+        keep_logs(&self.workdir, self.keep_log.as_deref(), self.ranks.rank);
     }
 }
 
-/// The run asked to keep LIGGGHTS's own logs: beside its other outputs. Then the working
-/// folder goes.
-fn keep_logs(workdir: &std::path::Path, keep: Option<&std::path::Path>) {
-    if let Some(dir) = keep {
+/// The run asked to keep LIGGGHTS's own logs: beside its other outputs (rank 0's: the
+/// only rank LIGGGHTS writes a log on). Then the working folder goes.
+fn keep_logs(workdir: &std::path::Path, keep: Option<&std::path::Path>, rank: usize) {
+    if let Some(dir) = keep.filter(|_| rank == 0) {
         for f in ["log.liggghts", "log2.liggghts"] {
             let _ = std::fs::copy(workdir.join(f), dir.join(f));
         }
@@ -883,15 +890,24 @@ fn keep_logs(workdir: &std::path::Path, keep: Option<&std::path::Path>) {
     let _ = std::fs::remove_dir_all(workdir);
 }
 
-/// The working folders of the instances alive in this process, each with where its logs
-/// go. LIGGGHTS's `error->all` (an input error met at run time) prints `ERROR: …` and calls
-/// `exit(1)`, past every `Drop`: an `atexit` hook then keeps the logs, the `ERROR` line
-/// with them, beside the run's outputs (the run's own hook, registered before, reads them
-/// after) and removes the folders.
-type LiveFiles = Vec<(PathBuf, Option<PathBuf>)>;
-static LIVE: Mutex<LiveFiles> = Mutex::new(Vec::new());
+/// An instance alive in this process: its working folder, where its logs (and last words)
+/// go, its rank.
+struct LiveFiles {
+    workdir: PathBuf,
+    keep: Option<PathBuf>,
+    rank: usize,
+    /// On one rank (no mpirun, or `-np 1`): no other process to abort.
+    alone: bool,
+}
 
-fn live_files(f: impl FnOnce(&mut LiveFiles)) {
+/// The instances alive in this process. LIGGGHTS's `error->all` (an input error met at run
+/// time) prints `ERROR: …` and calls `exit(1)`, past every `Drop`: an `atexit` hook then
+/// keeps the logs, the `ERROR` line with them, beside the run's outputs (the run's own
+/// hook, registered before, reads them after) and removes the folders. Its `error->one`
+/// calls `MPI_Abort`: see [`MPI_Abort`].
+static LIVE: Mutex<Vec<LiveFiles>> = Mutex::new(Vec::new());
+
+fn live_files(f: impl FnOnce(&mut Vec<LiveFiles>)) {
     static HOOK: std::sync::Once = std::sync::Once::new();
     HOOK.call_once(|| {
         // SAFETY: registers a plain extern "C" function (glibc runs it at exit, or when
@@ -907,11 +923,67 @@ extern "C" fn keep_logs_on_exit() {
     // (Nothing may unwind out of an atexit hook; a lock held mid-update is skipped.)
     let _ = std::panic::catch_unwind(|| {
         if let Ok(live) = LIVE.try_lock() {
-            for (workdir, keep) in live.iter() {
-                keep_logs(workdir, keep.as_deref());
+            for l in live.iter() {
+                keep_logs(&l.workdir, l.keep.as_deref(), l.rank);
             }
         }
     });
+}
+
+extern "C" {
+    /// MPI's profiling entries to the real `MPI_Abort` and `MPI_Finalize`.
+    fn PMPI_Abort(comm: *mut c_void, errorcode: c_int) -> c_int;
+    fn PMPI_Finalize() -> c_int;
+}
+
+/// LIGGGHTS's `error->one` (an error one rank meets alone, e.g. a per-grain variable
+/// dividing by zero) prints `ERROR on proc N: …` into its screen file, unflushed, and calls
+/// `MPI_Abort`, which kills every rank: the words would die with the buffer. This
+/// definition comes before libmpi's for LIGGGHTS (this library is first in the scope it
+/// and its dependencies were loaded in; MPI's profiling interface is made for this): it
+/// flushes every stream, leaves the `ERROR` line as `last_words_rank<R>.txt` in the run's
+/// folder (where the surviving ranks, ended by mpirun, read it for the summary) and on
+/// stderr (which mpirun passes on), keeps the logs as a normal close does, then aborts as
+/// asked; on one rank it ends the process as `error->all` does (finalize, `exit`), so that
+/// the run's exit hook writes its summary. (`MPI_Comm` is a pointer in
+/// Open MPI, Debian's MPI.)
+///
+/// # Safety
+/// As `MPI_Abort`.
+#[no_mangle]
+pub unsafe extern "C" fn MPI_Abort(comm: *mut c_void, errorcode: c_int) -> c_int {
+    libc::fflush(std::ptr::null_mut());
+    let alone = std::panic::catch_unwind(|| {
+        let Ok(live) = LIVE.try_lock() else {
+            return false;
+        };
+        for l in live.iter() {
+            let Ok(bytes) = std::fs::read(l.workdir.join("screen.liggghts")) else {
+                continue;
+            };
+            let text = String::from_utf8_lossy(&bytes);
+            let Some(words) = text.lines().rev().find(|x| x.starts_with("ERROR")) else {
+                continue;
+            };
+            eprintln!("rank {}: {words}", l.rank);
+            if let Some(dir) = &l.keep {
+                let path = dir.join(format!("last_words_rank{}.txt", l.rank));
+                let _ = std::fs::write(path, format!("rank {}: {}\n", l.rank, words.trim()));
+            }
+        }
+        // The logs kept (rank 0's), the working folders gone, as at a normal close.
+        for l in live.iter() {
+            keep_logs(&l.workdir, l.keep.as_deref(), l.rank);
+        }
+        !live.is_empty() && live.iter().all(|l| l.alone)
+    });
+    if matches!(alone, Ok(true)) {
+        // One process: end it as `error->all` does, so that its exit hooks (the run's
+        // summary) run; an abort would skip them.
+        PMPI_Finalize();
+        libc::exit(errorcode);
+    }
+    PMPI_Abort(comm, errorcode)
 }
 
 /// The mapped input's `create_box` line, which a restart file takes the place of.
@@ -1026,10 +1098,8 @@ impl DemBackend for Liggghts {
     fn keep_log(&mut self, dir: &std::path::Path) -> Result<(), BackendError> {
         self.keep_log = Some(dir.to_path_buf());
         live_files(|live| {
-            for (w, keep) in live.iter_mut() {
-                if w == &self.workdir {
-                    *keep = Some(dir.to_path_buf());
-                }
+            for l in live.iter_mut().filter(|l| l.workdir == self.workdir) {
+                l.keep = Some(dir.to_path_buf());
             }
         });
         Ok(())
