@@ -19,6 +19,12 @@ fn nullable<'de, D: Deserializer<'de>>(d: D) -> Result<Real, D::Error> {
     Ok(Option::<Real>::deserialize(d)?.unwrap_or(Real::NAN))
 }
 
+/// Two numbers of which JSON may hold either as `null` (read back as NaN).
+fn nullable_pair<'de, D: Deserializer<'de>>(d: D) -> Result<[Real; 2], D::Error> {
+    let [a, b] = <[Option<Real>; 2]>::deserialize(d)?;
+    Ok([a.unwrap_or(Real::NAN), b.unwrap_or(Real::NAN)])
+}
+
 /// The whole summary of a run.
 #[derive(Debug, Clone, Serialize, Deserialize)]
 pub struct Summary {
@@ -211,6 +217,8 @@ pub struct TargetRow {
     /// NaN (`null`) where the paper states a direction, not a number (V12).
     #[serde(deserialize_with = "nullable")]
     pub paper: Real,
+    /// An open end is infinite (`null` in JSON, read back as NaN).
+    #[serde(deserialize_with = "nullable_pair")]
     pub band: [Real; 2],
     pub ratio: Option<Real>,
     pub inside: bool,
@@ -228,13 +236,14 @@ pub enum Number {
     PlugMinPorosity,
     PlugRate,
     PlugRateChangeUpperBound,
+    UpperOverLowerVelocityInPlugs,
     SimulatedTime,
     WallTime,
 }
 
 impl Number {
     /// Every number, in the order of the summary.
-    pub const ALL: [Number; 11] = [
+    pub const ALL: [Number; 12] = [
         Number::PressureDrop,
         Number::ParticlesInTube,
         Number::MassOutflow,
@@ -244,6 +253,7 @@ impl Number {
         Number::PlugMinPorosity,
         Number::PlugRate,
         Number::PlugRateChangeUpperBound,
+        Number::UpperOverLowerVelocityInPlugs,
         Number::SimulatedTime,
         Number::WallTime,
     ];
@@ -260,6 +270,7 @@ impl Number {
             Number::PlugMinPorosity => "plug_min_porosity",
             Number::PlugRate => "plug_rate_per_s",
             Number::PlugRateChangeUpperBound => "plug_rate_change_middle_upper_2se",
+            Number::UpperOverLowerVelocityInPlugs => "upper_over_lower_granular_velocity_in_plugs",
             Number::SimulatedTime => "simulated_time_s",
             Number::WallTime => "wall_time_s",
         }
@@ -296,6 +307,12 @@ impl Number {
             Number::PlugRateChangeUpperBound => plugs.and_then(|p| {
                 Some(p.plug_rate_change_middle? + 2.0 * p.plug_rate_change_middle_se?)
             }),
+            // (In the profiles block, averaged over the run's slugs.)
+            Number::UpperOverLowerVelocityInPlugs => s
+                .profiles
+                .as_ref()
+                .and_then(|p| p.get(self.key()))
+                .and_then(Value::as_f64),
             Number::SimulatedTime => Some(s.simulated_time_s),
             Number::WallTime => Some(s.wall_time_s),
         };

@@ -121,6 +121,17 @@ pub const TARGETS: &[Target] = &[
         paper: 0.49,
         band: (0.44, 0.54),
     },
+    // Seed 002 §5, fig. 19: "within the slug the lower particle layers are slower than the
+    // upper ones" (no number in the text, hence NaN). Measured: the mean axial velocity of
+    // the grains in the upper half of the slugs' cross-section over the lower half's, in the
+    // middle 60 % of the tube.
+    Target {
+        id: "H10",
+        key: Number::UpperOverLowerVelocityInPlugs,
+        what: "slug velocity, upper half / lower half",
+        paper: Real::NAN,
+        band: (1.0, Real::INFINITY),
+    },
     // Experiment series A (TARGETS.md, seed 000 Table 1): the band is the measured
     // range (pressure drop ± its error; plug velocity and length as tabulated), the
     // "paper" value its middle.

@@ -120,6 +120,12 @@ pub struct Profiles {
     layer_len_plug: Real,
     layer_len_gap: Real,
     layer_edges: Vec<Real>,
+    /// Volume-weighted axial velocity sums per layer inside plugs (seed 002 fig. 19: the
+    /// layers of a slug shear, the upper ones fastest). Not in the fixed part of a
+    /// checkpoint: it travels in its extension ([`Profiles::layer_momentum`]), so a
+    /// checkpoint written before it still resumes (counted from the resume on).
+    #[serde(skip)]
+    layer_momentum_plug: Vec<Real>,
 }
 
 /// Finished profiles (means), ready for output.
@@ -148,6 +154,12 @@ pub struct ProfileResult {
     pub layer_h_over_d: Vec<Real>,
     pub layer_porosity_plug: Vec<Real>,
     pub layer_porosity_gap: Vec<Real>,
+    /// Volume-weighted axial granular velocity in each layer inside plugs, m/s (NaN: no
+    /// grain there).
+    pub layer_velocity_plug: Vec<Real>,
+    /// Mean axial velocity of the grains in the upper half of the plugs' cross-section over
+    /// that of the lower half (row H10: above 1 when the upper layers are faster).
+    pub upper_over_lower_velocity_plug: Real,
     pub plugs_used: u64,
 }
 
@@ -188,6 +200,19 @@ impl Profiles {
             layer_len_plug: 0.0,
             layer_len_gap: 0.0,
             layer_edges,
+            layer_momentum_plug: vec![0.0; layers],
+        }
+    }
+
+    /// The layer velocity sums, for a checkpoint's extension.
+    pub fn layer_momentum(&self) -> &[Real] {
+        &self.layer_momentum_plug
+    }
+
+    /// Take back the sums [`Profiles::layer_momentum`] gave (a checkpoint's extension).
+    pub fn set_layer_momentum(&mut self, sums: Vec<Real>) {
+        if sums.len() == self.layer_solid_plug.len() {
+            self.layer_momentum_plug = sums;
         }
     }
 
@@ -312,12 +337,15 @@ impl Profiles {
         self.layer_len_plug += plug_len;
         self.layer_len_gap += (hi - lo) - plug_len;
         let nl = self.layer_solid_plug.len();
+        // (A checkpoint from before the layer velocities: counted from here on.)
+        self.layer_momentum_plug.resize(nl, 0.0);
         let h = 2.0 * t.radius / nl as Real;
         for i in 0..x.len() {
             if s[i] < lo - r[i] || s[i] > hi + r[i] {
                 continue;
             }
             let (_, _, up) = cross(&x[i]);
+            let vz = dot(v[i], t.axis);
             let share = 1.0 / POINTS as Real;
             for q in &self.points {
                 let pz = s[i] + r[i] * dot(*q, t.axis);
@@ -332,6 +360,7 @@ impl Profiles {
                 let vol = share * 4.0 / 3.0 * std::f64::consts::PI * r[i].powi(3);
                 if in_plug(pz) {
                     self.layer_solid_plug[k as usize] += vol;
+                    self.layer_momentum_plug[k as usize] += vol * vz;
                 } else {
                     self.layer_solid_gap[k as usize] += vol;
                 }
@@ -421,6 +450,29 @@ impl Profiles {
                 .collect(),
             layer_porosity_plug: porosity_of(&self.layer_solid_plug, self.layer_len_plug),
             layer_porosity_gap: porosity_of(&self.layer_solid_gap, self.layer_len_gap),
+            layer_velocity_plug: (0..nl)
+                .map(|k| match self.layer_solid_plug[k] > 0.0 {
+                    true => {
+                        self.layer_momentum_plug
+                            .get(k)
+                            .copied()
+                            .unwrap_or(Real::NAN)
+                            / self.layer_solid_plug[k]
+                    }
+                    false => Real::NAN,
+                })
+                .collect(),
+            upper_over_lower_velocity_plug: {
+                // Layers split at the axis (their edges are symmetric about it).
+                let half = |range: std::ops::Range<usize>| {
+                    let solid: Real = range.clone().map(|k| self.layer_solid_plug[k]).sum();
+                    let momentum: Real = range
+                        .map(|k| self.layer_momentum_plug.get(k).copied().unwrap_or(0.0))
+                        .sum();
+                    momentum / solid
+                };
+                half(nl / 2..nl) / half(0..nl / 2)
+            },
             plugs_used: self.plugs_used,
         }
     }
@@ -526,6 +578,65 @@ mod tests {
         let mid = res.xi.len() / 2;
         assert!((res.velocity[mid] - 0.2).abs() < 1e-12);
         assert!(res.temperature[mid].abs() < 1e-20);
+    }
+
+    /// Two columns of grains along a horizontal tube inside one long slug, one 1.5 mm above
+    /// the axis moving at 0.3 m/s, one 1.5 mm below at 0.1 m/s: each layer holding grains
+    /// has its column's velocity, and upper / lower is 3 (row H10's measure).
+    #[test]
+    fn slug_layers_carry_their_grains_velocity() {
+        let tube = TubeFrame {
+            origin: [0.0; 3],
+            axis: [1.0, 0.0, 0.0],
+            up: [0.0, 0.0, 1.0],
+            radius: 3.5e-3,
+            length: 0.5,
+        };
+        let d = 1.4e-3;
+        let mut p = Profiles::new(
+            tube,
+            d,
+            WallSpring::Linear { kn: 1e3 },
+            PlugWindow::default(),
+        );
+        let (mut x, mut v) = (Vec::new(), Vec::new());
+        for k in 0..200 {
+            let s = 0.1 + k as Real * d;
+            x.push([s, 0.0, 1.5e-3]);
+            v.push([0.3, 0.0, 0.0]);
+            x.push([s, 0.0, -1.5e-3]);
+            v.push([0.1, 0.0, 0.0]);
+        }
+        let r = vec![0.5 * d; x.len()];
+        let slug = PlugObservation {
+            time: 0.0,
+            track: 0,
+            centre: 0.25,
+            length: 0.4,
+            min_porosity: 0.5,
+            max_velocity: 0.3,
+            grains: 400.0,
+            velocity: Some(0.2),
+        };
+        p.add_frame(&x, &v, &r, None, None, &[slug]);
+        let res = p.result();
+        for (h, u) in res.layer_h_over_d.iter().zip(&res.layer_velocity_plug) {
+            let height = h * d - tube.radius;
+            if u.is_nan() {
+                continue;
+            }
+            let want = if height > 0.0 { 0.3 } else { 0.1 };
+            assert!((u - want).abs() < 1e-12, "layer at {height} m: {u}");
+        }
+        assert!(
+            res.layer_velocity_plug
+                .iter()
+                .filter(|u| u.is_finite())
+                .count()
+                >= 4
+        );
+        let ratio = res.upper_over_lower_velocity_plug;
+        assert!((ratio - 3.0).abs() < 1e-12, "{ratio}");
     }
 
     /// The wall spring gives the engine's own elastic wall force: Hertz against a flat wall

@@ -8,7 +8,8 @@
 //! File: `checkpoints/checkpoint_<step>.pfc` =
 //! `MAGIC (8 bytes) | format (u32 LE) | payload length (u64 LE) | FNV-1a 64 of the payload
 //! (u64 LE) | payload (postcard)`, the payload being the [`Checkpoint`] followed by the
-//! measurements added since format 1 was fixed (today: a periodic section's slug trace), so
+//! measurements added since format 1 was fixed (today: a periodic section's slug trace, then
+//! the layer velocities inside slugs), so
 //! that a checkpoint written before them still resumes (they start at the resume). Written to a temporary name, synced, then renamed: a
 //! run killed while writing leaves the previous checkpoint whole. The last two are kept.
 
@@ -93,6 +94,8 @@ pub fn write(out_dir: &Path, c: &Checkpoint) -> Result<PathBuf, RunError> {
     };
     let mut payload = postcard::to_allocvec(c).map_err(encode_err)?;
     payload.extend(postcard::to_allocvec(&c.sampling.slug).map_err(encode_err)?);
+    let layers: Option<&[Real]> = c.sampling.profiles.as_ref().map(|p| p.layer_momentum());
+    payload.extend(postcard::to_allocvec(&layers).map_err(encode_err)?);
     let path = dir.join(format!("checkpoint_{:012}.pfc", c.steps_done));
     let tmp = dir.join(format!(".checkpoint_{:012}.pfc.part", c.steps_done));
     {
@@ -210,8 +213,20 @@ pub fn read(path: &Path, scene: &Scene, to: Use) -> Result<Checkpoint, Checkpoin
     let (mut c, extension): (Checkpoint, &[u8]) = postcard::take_from_bytes(payload)
         .map_err(|e| refuse(path, format!("cannot be decoded: {e}")))?;
     if !extension.is_empty() {
-        c.sampling.slug = postcard::from_bytes(extension)
+        let rest;
+        (c.sampling.slug, rest) = postcard::take_from_bytes(extension)
             .map_err(|e| refuse(path, format!("its slug trace cannot be decoded: {e}")))?;
+        if !rest.is_empty() {
+            let layers: Option<Vec<Real>> = postcard::from_bytes(rest).map_err(|e| {
+                refuse(
+                    path,
+                    format!("its slugs' layer velocities cannot be decoded: {e}"),
+                )
+            })?;
+            if let (Some(p), Some(sums)) = (c.sampling.profiles.as_mut(), layers) {
+                p.set_layer_momentum(sums);
+            }
+        }
     }
     let here = scene_identity(scene);
     match to {

@@ -306,6 +306,8 @@ fn profiles_json(pr: &Profiles, res: &ProfileResult) -> serde_json::Value {
         "layer_height_over_d": res.layer_h_over_d,
         "layer_porosity_in_plugs": res.layer_porosity_plug,
         "layer_porosity_between_plugs": res.layer_porosity_gap,
+        "layer_granular_velocity_in_plugs_m_s": res.layer_velocity_plug,
+        "upper_over_lower_granular_velocity_in_plugs": res.upper_over_lower_velocity_plug,
     })
 }
 
