@@ -179,9 +179,9 @@ pub struct PlugSummary {
     /// second, as [height m, rate] (seed 000 fig. 9); empty where none passed.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub plug_passages_by_height: Vec<[Real; 2]>,
-    /// Relative change of that rate from the lowest height to the highest (least-squares
-    /// line through the counts), and its standard error (counts as independent Poisson
-    /// variables: an upper bound); absent where nothing passed.
+    /// Relative change of that count from the lowest height to the highest, over the mean
+    /// count, and its standard error (the plugs that begin or end between neighbouring
+    /// heights taken as Poisson counts: an upper bound); absent where nothing passed.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub plug_rate_change_middle: Option<Real>,
     #[serde(default, skip_serializing_if = "Option::is_none")]

@@ -68,8 +68,9 @@ pub const TARGETS: &[Target] = &[
     },
     // Seed 000 fig. 9: "the merging of plugs reduces the plug rate along the tube", a
     // smooth decrease (no number in the text, hence NaN). Measured: the relative change of
-    // the passage rate across the middle 60 % plus two standard errors of the counts, so
-    // the row is inside only when the fall is larger than the counting noise.
+    // the plugs passing from the lowest to the highest of six heights across the middle
+    // 60 %, plus two standard errors of the plugs beginning and ending between them, so the
+    // row is inside only when the fall is larger than the counting noise.
     Target {
         id: "V12",
         key: Number::PlugRateChangeUpperBound,

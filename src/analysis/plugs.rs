@@ -244,71 +244,70 @@ pub fn median(mut v: Vec<Real>) -> Option<Real> {
 
 /// Plugs passing each height, as seed 000 fig. 9 counts them ("number of plugs per time as a
 /// function of height"): a tracked plug passes z when its centre goes from below z to z or
-/// above between two frames (upward along the axis, the conveying direction).
+/// above between two frames (upward along the axis, the conveying direction); each plug
+/// counts once per height.
 #[derive(Debug, Clone, PartialEq)]
 pub struct PassageRates {
-    /// Heights along the axis, m, and the passages through each per second.
+    /// Heights along the axis, m, and the plugs passing each per second.
     pub rates: Vec<[Real; 2]>,
-    /// Relative change of the rate from the lowest height to the highest (least-squares line
-    /// through the counts, its rise over the heights' span divided by the mean count).
+    /// Relative change of the count from the lowest height to the highest, over the mean
+    /// count: (n_top − n_bottom) / n̄.
     pub change: Real,
-    /// Standard error of `change`, the counts taken as independent Poisson variables. One plug
-    /// passing several heights makes neighbouring counts correlate positively, which lowers
-    /// the true variance of their differences: this error is an upper bound.
+    /// Standard error of `change`. Between two neighbouring heights the count changes only
+    /// by the plugs that end between them (merged into the next, or dissolved: D) and those
+    /// that begin there (B): n_{k+1} − n_k = B_k − D_k exactly. Taking each of these events
+    /// as a Poisson count, var(n_top − n_bottom) = Σ (B_k + D_k), an upper bound (a plug
+    /// that begins and ends between the two ends counts twice and changes nothing).
     pub change_se: Real,
 }
 
-/// The passage rates through `heights` (m along the axis) of the plugs in `observations`
-/// (frame order) over `span` seconds; None with fewer than three heights, an empty span or no
-/// passage at all (nothing measured).
+/// The passage rates through `heights` (m along the axis, ascending, at most 64) of the
+/// plugs in `observations` (frame order) over `span` seconds; None with fewer than two
+/// heights, an empty span or no passage at all (nothing measured).
 pub fn passage_rates(
     observations: &[PlugObservation],
     heights: &[Real],
     span: Real,
 ) -> Option<PassageRates> {
-    if heights.len() < 3 || span <= 0.0 {
+    if heights.len() < 2 || heights.len() > 64 || span <= 0.0 {
         return None;
     }
-    let mut counts = vec![0.0; heights.len()];
-    let mut last = std::collections::HashMap::new();
+    // Per track: its last centre and the heights it passed (one bit each).
+    let mut tracks: std::collections::BTreeMap<u64, (Real, u64)> = Default::default();
     for o in observations {
-        if let Some(prev) = last.insert(o.track, o.centre) {
-            for (n, &z) in counts.iter_mut().zip(heights) {
-                if prev < z && o.centre >= z {
-                    *n += 1.0;
-                }
+        let entry = tracks.entry(o.track).or_insert((o.centre, 0));
+        let prev = entry.0;
+        for (k, &z) in heights.iter().enumerate() {
+            if prev < z && o.centre >= z {
+                entry.1 |= 1 << k;
             }
         }
+        entry.0 = o.centre;
     }
-    let m = heights.len() as Real;
-    let mean_n = counts.iter().sum::<Real>() / m;
+    let m = heights.len();
+    let passed = |k: usize| tracks.values().filter(|t| t.1 >> k & 1 == 1).count() as Real;
+    let counts: Vec<Real> = (0..m).map(passed).collect();
+    let mean_n = counts.iter().sum::<Real>() / m as Real;
     if mean_n <= 0.0 {
         return None;
     }
-    let mean_z = heights.iter().sum::<Real>() / m;
-    let szz: Real = heights.iter().map(|z| (z - mean_z).powi(2)).sum();
-    let slope = heights
-        .iter()
-        .zip(&counts)
-        .map(|(z, n)| (z - mean_z) * (n - mean_n))
-        .sum::<Real>()
-        / szz;
-    // var(slope) = Σ (z − z̄)² var(n) / Szz², var(n) = n (Poisson).
-    let slope_var = heights
-        .iter()
-        .zip(&counts)
-        .map(|(z, n)| (z - mean_z).powi(2) * n)
-        .sum::<Real>()
-        / (szz * szz);
-    let reach = heights[heights.len() - 1] - heights[0];
+    // Births and deaths between neighbouring heights.
+    let events: Real = (0..m - 1)
+        .map(|k| {
+            tracks
+                .values()
+                .filter(|t| (t.1 >> k & 1) != (t.1 >> (k + 1) & 1))
+                .count() as Real
+        })
+        .sum();
     Some(PassageRates {
         rates: heights
             .iter()
             .zip(&counts)
             .map(|(&z, &n)| [z, n / span])
             .collect(),
-        change: slope * reach / mean_n,
-        change_se: slope_var.sqrt() * reach / mean_n,
+        change: (counts[m - 1] - counts[0]) / mean_n,
+        change_se: events.sqrt() / mean_n,
     })
 }
 
@@ -330,9 +329,10 @@ mod tests {
     }
 
     /// Four plugs enter at the bottom, two merge into others half-way (their tracks end at
-    /// 0.25 m): the passages fall from 4 to 2 across the heights, exactly as counted.
+    /// 0.25 m), a fifth begins at 0.35 m: the counts are 4, 4, 2, 3 and the events between
+    /// neighbouring heights two deaths and one birth.
     #[test]
-    fn passage_rates_count_upward_crossings_per_height() {
+    fn passage_rates_count_each_plug_once_per_height() {
         let mut o = Vec::new();
         for k in 0..10 {
             let t = k as Real * 0.1;
@@ -342,20 +342,26 @@ mod tests {
                     o.push(obs(t, track, c));
                 }
             }
+            if k >= 7 {
+                // Born at 0.35 m, passing 0.4 m once.
+                o.push(obs(t, 9, 0.35 + 0.03 * (k - 7) as Real));
+            }
+        }
+        // A plug that goes up through 0.1 m, back down and up again counts once there.
+        for (k, c) in [0.05, 0.12, 0.08, 0.13].iter().enumerate() {
+            o.push(obs(2.0 + k as Real * 0.1, 20, *c));
         }
         let heights = [0.1, 0.2, 0.3, 0.4];
         let r = passage_rates(&o, &heights, 2.0).unwrap();
         let rates: Vec<Real> = r.rates.iter().map(|x| x[1]).collect();
-        assert_eq!(rates, vec![2.0, 2.0, 1.0, 1.0]);
-        // Counts 4, 4, 2, 2: slope −8 per m (Szz = 0.05), over 0.3 m, mean 3 → −0.8.
-        assert!((r.change + 0.8).abs() < 1e-12, "{}", r.change);
-        // Σ(z−z̄)² n = 0.0225·4 + 0.0025·4 + 0.0025·2 + 0.0225·2 = 0.15.
-        let se = (0.15f64).sqrt() / 0.05 * 0.3 / 3.0;
-        assert!((r.change_se - se).abs() < 1e-12, "{} vs {se}", r.change_se);
+        assert_eq!(rates, vec![2.5, 2.0, 1.0, 1.5]);
+        // Counts 5, 4, 2, 3 (mean 3.5): change (3 − 5) / 3.5; events 1 + 2 + 1 = 4.
+        assert!((r.change + 2.0 / 3.5).abs() < 1e-12, "{}", r.change);
+        assert!((r.change_se - 2.0 / 3.5).abs() < 1e-12, "{}", r.change_se);
         // A plug going down does not pass; nothing passing is not a rate of zero.
         let down = [obs(0.0, 7, 0.35), obs(0.1, 7, 0.15)];
         assert!(passage_rates(&down, &heights, 2.0).is_none());
-        assert!(passage_rates(&o, &heights[..2], 2.0).is_none());
+        assert!(passage_rates(&o, &heights[..1], 2.0).is_none());
     }
 
     #[test]
