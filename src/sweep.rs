@@ -364,7 +364,7 @@ pub fn sweep(
     std::fs::write(&csv_path, csv).map_err(|e| io(&csv_path, &e))?;
     draw_curves(&opts.out_dir, scene_path, varies, &variants, &rows)
         .map_err(|e| io(&opts.out_dir, &e))?;
-    // The rows only a sweep measures (V6, V7, V9–V11), from a sweep of one setting.
+    // The rows only a sweep measures (V6, V7, V9–V11, H7), from a sweep of one setting.
     let targets = match varies {
         [only] => {
             let points: Vec<(Real, &Summary)> = variants
@@ -373,7 +373,9 @@ pub fn sweep(
                 .filter_map(|(v, r)| Some((leading_number(&v[0].1)?, r.as_ref()?)))
                 .filter(|(_, r)| r.completed())
                 .collect();
-            characteristic_targets(&only.path, &points)
+            let horizontal = Scene::load(scene_path, &[])
+                .is_ok_and(|s| s.file.output.reproduces.iter().any(|r| r.starts_with('H')));
+            characteristic_targets(&only.path, &points, horizontal)
         }
         _ => Vec::new(),
     };

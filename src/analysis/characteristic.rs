@@ -1,6 +1,7 @@
 //! The TARGETS.md rows that only a sweep measures (seed 000 §4.1): the pressure drop along
 //! the superficial velocity (V6, V7), against the grains in the tube (V9), along the
-//! Coulomb friction (V10) and the restitution (V11). Each compares variants of one sweep,
+//! Coulomb friction (V10) and the restitution (V11); on the horizontal case, against the
+//! granular mass flow (H7). Each compares variants of one sweep,
 //! all else equal, so a row is read from one `--vary` and its variants' summaries.
 
 use crate::summary::{Number, Summary, TargetRow};
@@ -12,7 +13,14 @@ const REFERENCE_VELOCITY: Real = 1.0;
 /// The rows a sweep over `path` measures, from `(value of path, summary)` of its variants
 /// (variants without a pressure drop left out). Empty when the path is none of the above or
 /// the points needed are missing (e.g. no v_s = 1 m/s variant for V6/V7).
-pub fn characteristic_targets(path: &str, points: &[(Real, &Summary)]) -> Vec<TargetRow> {
+///
+/// `horizontal`: the scene is the horizontal case (it reproduces H-rows): a sweep of the
+/// feed then measures H7.
+pub fn characteristic_targets(
+    path: &str,
+    points: &[(Real, &Summary)],
+    horizontal: bool,
+) -> Vec<TargetRow> {
     let mut pts: Vec<(Real, Real, Real)> = points
         .iter()
         .filter_map(|(x, s)| {
@@ -63,6 +71,18 @@ pub fn characteristic_targets(path: &str, points: &[(Real, &Summary)]) -> Vec<Ta
                 (0.9, 1.0),
             ));
         }
+    }
+    if horizontal && path.ends_with("mass_flow") && pts.len() >= 3 {
+        // H7: seed 002 fig. 3's two characteristic curves (2.49 and 9.95 kg/h) imply a
+        // pressure drop linear in the granular mass flow; straight-line fit.
+        let by_feed: Vec<(Real, Real)> = pts.iter().map(|p| (p.0, p.1)).collect();
+        rows.push(row(
+            "H7",
+            "R² of Δp against the granular mass flow",
+            r_squared(&by_feed),
+            Real::NAN,
+            (0.9, 1.0),
+        ));
     }
     if path.ends_with("friction") && pts.len() >= 2 {
         // V10: "pressure drop rises with μ": the smallest ratio of neighbours along μ.
@@ -138,7 +158,7 @@ mod tests {
     fn the_papers_points_pass_their_rows() {
         let s = [at(62.0, 4900.0), at(39.0, 3600.0), at(13.0, 850.0)];
         let pts = [(0.75, &s[0]), (1.0, &s[1]), (4.0, &s[2])];
-        let rows = characteristic_targets("gas.superficial_velocity", &pts);
+        let rows = characteristic_targets("gas.superficial_velocity", &pts, false);
         let ids: Vec<&str> = rows.iter().map(|r| r.id.as_str()).collect();
         assert_eq!(ids, ["V6", "V7", "V9"]);
         assert!(rows.iter().all(|r| r.inside), "{rows:?}");
@@ -154,15 +174,23 @@ mod tests {
     fn wrong_directions_fail_and_missing_points_measure_nothing() {
         let s = [at(30.0, 3000.0), at(40.0, 3000.0), at(35.0, 3000.0)];
         let pts = [(0.2, &s[0]), (0.5, &s[1]), (0.8, &s[2])];
-        let v10 = characteristic_targets("contact.friction", &pts);
+        let v10 = characteristic_targets("contact.friction", &pts, false);
         assert_eq!(v10.len(), 1);
         assert!((v10[0].measured.unwrap() - 35.0 / 40.0).abs() < 1e-12);
         assert!(!v10[0].inside);
         let e = [(0.5, &s[1]), (0.99, &s[0])];
-        let v11 = characteristic_targets("contact.restitution", &e);
+        let v11 = characteristic_targets("contact.restitution", &e, false);
         assert!((v11[0].measured.unwrap() - 0.75).abs() < 1e-12);
         assert!(!v11[0].inside);
         let v = [(0.5, &s[0]), (2.0, &s[1])];
-        assert!(characteristic_targets("gas.superficial_velocity", &v).is_empty());
+        assert!(characteristic_targets("gas.superficial_velocity", &v, false).is_empty());
+        // The feed: H7 on the horizontal case only.
+        let feed = [(0.75, &s[0]), (1.25, &s[1]), (2.49, &s[2])];
+        assert!(characteristic_targets("inlet.mass_flow", &feed, false).is_empty());
+        let h7 = characteristic_targets("inlet.mass_flow", &feed, true);
+        assert_eq!(h7[0].id, "H7");
+        // Δp 30, 40, 35 against 0.75, 1.25, 2.49: R² by hand 0.0779.
+        assert!((h7[0].measured.unwrap() - 0.0779).abs() < 1e-4, "{h7:?}");
+        assert!(!h7[0].inside);
     }
 }
