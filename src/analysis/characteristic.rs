@@ -23,6 +23,10 @@ pub fn characteristic_targets(
 ) -> Vec<TargetRow> {
     let mut pts: Vec<(Real, Real, Real)> = points
         .iter()
+        // A variant whose inlet fell behind (more than 1 % of the grains asked for still
+        // owed: a blocked inlet slab) ran a smaller feed than the scene's: not a point of
+        // this curve.
+        .filter(|(_, s)| fed_as_asked(s))
         .filter_map(|(x, s)| {
             let dp = Number::PressureDrop.of(s)?;
             let n = Number::ParticlesInTube.of(s)?;
@@ -112,6 +116,14 @@ pub fn characteristic_targets(
     rows
 }
 
+/// The run fed what its inlet asked for, within 1 % (or has no inlet).
+fn fed_as_asked(s: &Summary) -> bool {
+    match (s.grains_asked, s.feed_backlog_grains) {
+        (Some(asked), Some(owed)) => owed as Real <= 0.01 * asked as Real,
+        _ => true,
+    }
+}
+
 fn row(id: &str, what: &str, measured: Real, paper: Real, band: (Real, Real)) -> TargetRow {
     let finite = measured.is_finite().then_some(measured);
     TargetRow {
@@ -182,6 +194,13 @@ mod tests {
         let v11 = characteristic_targets("contact.restitution", &e, false);
         assert!((v11[0].measured.unwrap() - 0.75).abs() < 1e-12);
         assert!(!v11[0].inside);
+        // A variant whose inlet was blocked (fed 9 % of what it asked) is no point of the
+        // curve: V11 is then not measured.
+        let mut blocked = at(12.0, 1800.0);
+        blocked.grains_asked = Some(5137);
+        blocked.feed_backlog_grains = Some(4680);
+        let e2 = [(0.5, &s[1]), (0.99, &blocked)];
+        assert!(characteristic_targets("contact.restitution", &e2, false).is_empty());
         let v = [(0.5, &s[0]), (2.0, &s[1])];
         assert!(characteristic_targets("gas.superficial_velocity", &v, false).is_empty());
         // The feed: H7 on the horizontal case only.
