@@ -379,10 +379,13 @@ pub fn sweep(
         }
         _ => Vec::new(),
     };
+    let path = opts.out_dir.join("targets.json");
     if !targets.is_empty() {
-        let path = opts.out_dir.join("targets.json");
         let text = serde_json::to_string_pretty(&targets).map_err(|e| io(&path, &e))?;
         std::fs::write(&path, text).map_err(|e| io(&path, &e))?;
+    } else if path.exists() {
+        // (An earlier gathering's rows, from variants this one leaves out.)
+        std::fs::remove_file(&path).map_err(|e| io(&path, &e))?;
     }
     Ok(SweepResult { rows, targets })
 }
