@@ -931,8 +931,7 @@ extern "C" fn keep_logs_on_exit() {
 }
 
 extern "C" {
-    /// MPI's profiling entries to the real `MPI_Abort` and `MPI_Finalize`.
-    fn PMPI_Abort(comm: *mut c_void, errorcode: c_int) -> c_int;
+    /// MPI's profiling entry to the real `MPI_Finalize`.
     fn PMPI_Finalize() -> c_int;
 }
 
@@ -943,9 +942,9 @@ extern "C" {
 /// and its dependencies were loaded in; MPI's profiling interface is made for this): it
 /// flushes every stream, leaves the `ERROR` line as `last_words_rank<R>.txt` in the run's
 /// folder (where the surviving ranks, ended by mpirun, read it for the summary) and on
-/// stderr (which mpirun passes on), keeps the logs as a normal close does, then aborts as
-/// asked; on one rank it ends the process as `error->all` does (finalize, `exit`), so that
-/// the run's exit hook writes its summary. (`MPI_Comm` is a pointer in
+/// stderr (which mpirun passes on), keeps the logs as a normal close does, then ends the
+/// process with `exit` (on one rank after finalising, as `error->all` does), so that the
+/// run's exit hook writes its summary; mpirun ends the other ranks on the non-zero exit. (`MPI_Comm` is a pointer in
 /// Open MPI, Debian's MPI.)
 ///
 /// # Safety
@@ -983,7 +982,12 @@ pub unsafe extern "C" fn MPI_Abort(comm: *mut c_void, errorcode: c_int) -> c_int
         PMPI_Finalize();
         libc::exit(errorcode);
     }
-    PMPI_Abort(comm, errorcode)
+    // Several ranks: every rank may meet the error at once and abort, leaving no survivor
+    // to write the summary. Exiting (without finalising, which would wait for the others)
+    // runs this rank's exit hooks, rank 0's writing the summary; mpirun then ends the job
+    // on the non-zero exit as it does on an abort. (`comm` unused: the whole job ends.)
+    let _ = comm;
+    libc::exit(if errorcode == 0 { 1 } else { errorcode })
 }
 
 /// The mapped input's `create_box` line, which a restart file takes the place of.
