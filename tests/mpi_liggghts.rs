@@ -38,6 +38,17 @@ fn mpirun(ranks: usize, args: &[&str]) -> Output {
     })
 }
 
+/// `plugflow ARGS…` under `mpirun -np N`, or as one plain process (`None`).
+fn launch(ranks: Option<usize>, args: &[&str]) -> Output {
+    match ranks {
+        Some(n) => mpirun(n, args),
+        None => std::process::Command::new(env!("CARGO_BIN_EXE_plugflow"))
+            .args(args)
+            .output()
+            .unwrap(),
+    }
+}
+
 fn said(o: &Output) -> String {
     format!(
         "exit {:?}\n{}{}",
@@ -325,13 +336,7 @@ fn d_a_run_on_2_ranks_resumes_from_its_checkpoint() {
         } else {
             ["--out", d]
         });
-        let o = match ranks {
-            Some(n) => mpirun(n, &args),
-            None => std::process::Command::new(env!("CARGO_BIN_EXE_plugflow"))
-                .args(&args)
-                .output()
-                .unwrap(),
-        };
+        let o = launch(ranks, &args);
         assert!(o.status.success(), "{ranks:?} ranks {args:?}: {}", said(&o));
         let s = common::read_summary(dir);
         assert_eq!(s["status"], "completed", "{s}");
@@ -408,13 +413,7 @@ fn d_a_run_on_2_ranks_resumes_from_its_checkpoint() {
         } else {
             ["--out", d]
         });
-        let o = match ranks {
-            Some(n) => mpirun(n, &args),
-            None => std::process::Command::new(env!("CARGO_BIN_EXE_plugflow"))
-                .args(&args)
-                .output()
-                .unwrap(),
-        };
+        let o = launch(ranks, &args);
         assert!(o.status.success(), "{ranks:?} ranks {args:?}: {}", said(&o));
         common::read_summary(dir)["grains_fed"].as_u64().unwrap()
     };
@@ -503,13 +502,7 @@ fn e_a_run_ended_by_its_engine_or_a_dead_rank_leaves_a_failed_summary() {
             out.to_str().unwrap(),
             "--quiet",
         ];
-        let o = match ranks {
-            Some(n) => mpirun(n, &args),
-            None => std::process::Command::new(env!("CARGO_BIN_EXE_plugflow"))
-                .args(args)
-                .output()
-                .unwrap(),
-        };
+        let o = launch(ranks, &args);
         let text = said(&o);
         assert_eq!(o.status.code(), Some(1), "{ranks:?}: {text}");
         let s = common::read_summary(&out);
@@ -544,13 +537,7 @@ fn e_a_run_ended_by_its_engine_or_a_dead_rank_leaves_a_failed_summary() {
             out.to_str().unwrap(),
             "--quiet",
         ];
-        let o = match ranks {
-            Some(n) => mpirun(n, &args),
-            None => std::process::Command::new(env!("CARGO_BIN_EXE_plugflow"))
-                .args(args)
-                .output()
-                .unwrap(),
-        };
+        let o = launch(ranks, &args);
         let text = said(&o);
         assert!(!o.status.success(), "{text}");
         assert!(
