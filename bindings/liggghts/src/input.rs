@@ -1,7 +1,7 @@
 //! Scene → LIGGGHTS input. Everything is checked here, before LIGGGHTS sees a line: a
 //! scene this mapping cannot express exactly is refused with the field and the reason.
 
-use plugflow_model::dem::config::{InitialConfig, LawSet, RollingSet, TangentialSet};
+use plugflow_model::dem::config::{InitialConfig, InletMode, LawSet, RollingSet, TangentialSet};
 use plugflow_model::dem::external::{
     beta_form_restitution, linear_pairs, single_grain_mass, LinearPair,
 };
@@ -87,6 +87,20 @@ fn refuse_slab(cfg: &DemConfig) -> Result<(), Refusal> {
     Ok(())
 }
 
+/// The conveyor inlet holds grains to the feed motion (1/m = 0) until they leave the slab:
+/// the built-in engine's alone (LIGGGHTS's `fix insert/rate/region` places them free).
+fn refuse_conveyor(cfg: &DemConfig) -> Result<(), Refusal> {
+    if cfg.inlet.is_some_and(|i| i.mode == InletMode::Conveyor) {
+        return Err(refuse(
+            "inlet.mode",
+            "the conveyor inlet is not mapped to LIGGGHTS (its insertion fixes place grains \
+             free, not held to the feed motion); use inlet.mode = \"slab\" or \
+             dem.engine = \"native\"",
+        ));
+    }
+    Ok(())
+}
+
 /// Frozen grains (`initial.file`'s `frozen` column) are the built-in engine's alone.
 fn refuse_frozen(cfg: &DemConfig) -> Result<(), Refusal> {
     if let Some(InitialConfig::Given(grains)) = &cfg.initial {
@@ -150,6 +164,7 @@ fn hertz_history(
 
 pub fn map(scene: &Scene, cfg: &DemConfig) -> Result<Mapped, Refusal> {
     refuse_slab(cfg)?;
+    refuse_conveyor(cfg)?;
     refuse_frozen(cfg)?;
     let Some(m) = single_grain_mass(cfg) else {
         return Err(refuse(
@@ -391,6 +406,7 @@ const REFUSED: [&str; 8] = [
 /// A user's own LIGGGHTS input (CFDEMcoupling style) with plugflow's coupling fixes.
 pub fn map_user(cfg: &DemConfig, path: &str) -> Result<Mapped, Refusal> {
     refuse_slab(cfg)?;
+    refuse_conveyor(cfg)?;
     refuse_frozen(cfg)?;
     let field = "dem.liggghts_input";
     let text = std::fs::read_to_string(path)

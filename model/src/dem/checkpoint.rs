@@ -11,6 +11,7 @@ use plugflow_coupling::{BackendError, StageTimer};
 use super::neighbor::NeighborKeep;
 use super::state::ParticleState;
 use super::{cut_by_cost, FlowCounters, NativeDem, MIN_GRAINS_PER_CHUNK};
+use crate::dem::conveyor::Conveyor;
 use crate::dem::inlet::Feeder;
 use crate::rng::Rng;
 use crate::{Real, Vec3};
@@ -68,13 +69,55 @@ pub(super) fn save(dem: &NativeDem) -> Result<Vec<u8>, BackendError> {
         nlist: dem.nlist.keep(),
         timer: dem.timer.entries(),
     };
-    postcard::to_allocvec(&saved).map_err(|e| refused(format!("cannot encode the grains: {e}")))
+    let mut bytes = postcard::to_allocvec(&saved)
+        .map_err(|e| refused(format!("cannot encode the grains: {e}")))?;
+    // The conveyor's column follows as a trailer (checkpoints of runs without one, and
+    // those written before it existed, end with the grains).
+    if let Some(column) = &dem.conveyor {
+        let trailer = postcard::to_allocvec(column)
+            .map_err(|e| refused(format!("cannot encode the conveyor's column: {e}")))?;
+        bytes.extend(trailer);
+    }
+    Ok(bytes)
 }
 
 /// Go on from `bytes` ([`save`]'s) in an engine built from the same scene.
 pub(super) fn restore(dem: &mut NativeDem, bytes: &[u8]) -> Result<(), BackendError> {
-    let s: Saved = postcard::from_bytes(bytes)
+    let column = restore_grains(dem, bytes)?;
+    match (&dem.conveyor, column) {
+        (Some(_), Some(c)) => dem.conveyor = Some(c),
+        (None, None) => {}
+        (Some(_), None) => {
+            return Err(refused(
+                "`inlet.mode`: the scene feeds through a conveyor, the checkpoint has no \
+                 conveyor column (its run fed through the slab); start from it with `--from` \
+                 instead of resuming"
+                    .to_string(),
+            ))
+        }
+        (None, Some(_)) => {
+            return Err(refused(
+                "`inlet.mode`: the checkpoint's run fed through a conveyor, the scene does not"
+                    .to_string(),
+            ))
+        }
+    }
+    Ok(())
+}
+
+/// [`restore`] but for the conveyor's column, returned as read (None: the checkpoint has
+/// none).
+fn restore_grains(dem: &mut NativeDem, bytes: &[u8]) -> Result<Option<Conveyor>, BackendError> {
+    let (s, trailer): (Saved, &[u8]) = postcard::take_from_bytes(bytes)
         .map_err(|e| refused(format!("the engine's part cannot be read: {e}")))?;
+    let column = if trailer.is_empty() {
+        None
+    } else {
+        Some(
+            postcard::from_bytes::<Conveyor>(trailer)
+                .map_err(|e| refused(format!("the conveyor's column cannot be read: {e}")))?,
+        )
+    };
     if s.format != FORMAT {
         return Err(refused(format!(
             "written in the engine's format {}, this build reads format {FORMAT}",
@@ -146,14 +189,24 @@ pub(super) fn restore(dem: &mut NativeDem, bytes: &[u8]) -> Result<(), BackendEr
         dem.bounds.clear();
         dem.rebuild_pending = true;
     }
-    Ok(())
+    Ok(column)
 }
 
 /// Start from another run's grains ([`save`]'s bytes) at time zero with this engine's own
 /// settings: refused when a grain's size or density is not the scene's (their masses were
 /// computed for another material), naming the field.
 pub(super) fn start_from(dem: &mut NativeDem, bytes: &[u8]) -> Result<(), BackendError> {
-    restore(dem, bytes)?;
+    // A conveyor of the other run is not this one's: the column starts afresh below the
+    // grains (those in the slab join it at the first feed).
+    let theirs = restore_grains(dem, bytes)?;
+    if let Some(column) = theirs {
+        // Its held grains go free, as they would have on leaving its slab.
+        for i in 0..dem.state.len() {
+            if column.holds(dem.state.id[i]) {
+                dem.state.release(i);
+            }
+        }
+    }
     let cfg = &dem.cfg;
     let s = &dem.state;
     let (lo, hi) = (cfg.radius_min, cfg.radius_max);
@@ -186,6 +239,11 @@ pub(super) fn start_from(dem: &mut NativeDem, bytes: &[u8]) -> Result<(), Backen
     dem.rng = Rng::new(dem.cfg.seed);
     dem.flow = FlowCounters::default();
     dem.feeder = Feeder::default();
+    if dem.conveyor.is_some() {
+        let column = Conveyor::primed(&dem.cfg, &mut dem.rng)
+            .map_err(|why| refused(format!("`inlet.porosity`: {why}")))?;
+        dem.conveyor = Some(column);
+    }
     dem.timer = StageTimer::new();
     // The skin may be the scene's own: the list is built again at the first step (the
     // shear histories carry over through the rebuild, as at every build).

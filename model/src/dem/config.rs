@@ -8,6 +8,7 @@ use super::contact::{
 use super::forces::Laws;
 use super::placement::Region;
 use super::walls::Wall;
+pub use crate::scene::InletMode;
 use crate::{Real, Vec3};
 use std::f64::consts::PI;
 
@@ -198,6 +199,8 @@ pub struct TubeGeometry {
 /// The inlet in engine terms.
 #[derive(Debug, Clone, Copy)]
 pub struct InletConfig {
+    /// Random placement in the slab, or a packed column pushed in.
+    pub mode: InletMode,
     /// Grains per second.
     pub rate: Real,
     /// Feed speed along the axis, m/s.
@@ -206,7 +209,7 @@ pub struct InletConfig {
     pub slab_length: Real,
     /// Grains per full slab at the requested porosity.
     pub batch_target: usize,
-    /// Requested porosity.
+    /// Requested porosity (the conveyor's: the one its rate and velocity make).
     pub porosity: Real,
     /// Feeding stops at this time, s (None: never).
     pub until: Option<Real>,

@@ -8,6 +8,7 @@
 mod checkpoint;
 pub mod config;
 pub mod contact;
+pub mod conveyor;
 pub mod external;
 pub mod forces;
 pub mod inlet;
@@ -34,6 +35,7 @@ use plugflow_coupling::{
 };
 
 use self::contact::{NoRolling, NormalLaw, RollingLaw, RollingPair, TangentialLaw};
+use self::conveyor::{axial, Conveyor};
 use self::forces::{
     chunk_forces, ChunkOut, ContactScratch, ForceInputs, GrainsIn, Laws, Spill, StepSettings,
     UniformPair,
@@ -83,6 +85,8 @@ pub struct NativeDem {
     rebuild_pending: bool,
     /// The inlet's bookkeeping.
     feeder: Feeder,
+    /// The conveyor inlet's column (`inlet.mode = "conveyor"` only).
+    conveyor: Option<Conveyor>,
     /// Inflow/outflow counters.
     pub flow: FlowCounters,
     wall_force: Vec<Vec3>,
@@ -137,6 +141,7 @@ impl NativeDem {
             next_id: 0,
             rebuild_pending: true,
             feeder: Feeder::default(),
+            conveyor: None,
             flow: FlowCounters::default(),
             wall_force: vec![[0.0; 3]; nw],
             chunk_wall_force: vec![vec![[0.0; 3]; nw]; cfg.threads],
@@ -208,6 +213,15 @@ impl NativeDem {
         if let Some(t) = dem.cfg.settle {
             dem.settle(t)?;
         }
+        if dem
+            .cfg
+            .inlet
+            .is_some_and(|i| i.mode == config::InletMode::Conveyor)
+        {
+            let column = Conveyor::primed(&dem.cfg, &mut dem.rng)
+                .map_err(|why| crate::scene::SceneError::field("inlet.porosity", why))?;
+            dem.conveyor = Some(column);
+        }
         Ok(dem)
     }
 
@@ -271,7 +285,9 @@ impl NativeDem {
         (0..s.len())
             .map(|i| {
                 let t = 0.5 * s.mass[i] * norm2(s.velocity[i]);
-                let r = 0.5 / s.inv_inertia[i] * norm2(s.angular_velocity[i]);
+                // From the mass, not 1/I: a held or frozen grain has 1/I = 0.
+                let inertia = 0.4 * s.mass[i] * s.radius[i] * s.radius[i];
+                let r = 0.5 * inertia * norm2(s.angular_velocity[i]);
                 t + r
             })
             .sum()
@@ -313,8 +329,13 @@ impl NativeDem {
         }
     }
 
-    /// Feed the grains the inlet owes (see [`Feeder::feed`]).
+    /// Feed the grains the inlet owes (see [`Feeder::feed`]), or move the conveyor's
+    /// column on (see [`NativeDem::convey`]).
     fn feed(&mut self, elapsed: Real) {
+        if self.conveyor.is_some() {
+            self.convey(elapsed);
+            return;
+        }
         let placed = self.feeder.feed(
             &self.cfg,
             self.time,
@@ -342,6 +363,69 @@ impl NativeDem {
             self.flow.fed_mass += *self.state.mass.last().expect("just pushed");
         }
         self.rebuild_pending = true;
+    }
+
+    /// The conveyor inlet's part of a feed, `elapsed` s after the last: grains of the column
+    /// held to the feed motion (1/m = 1/I = 0 and the feed velocity: the integrator moves
+    /// them at it, forces and all) until their centre leaves the slab; the column moved on
+    /// by the distance they moved; grains of it that came one radius into the tube added,
+    /// held. At the first feed the grains already in the slab (a tube filled by another run)
+    /// join the column. When the feed stops (`inlet.until`) every held grain is released.
+    fn convey(&mut self, elapsed: Real) {
+        let (Some(inlet), Some(tube), Some(mut column)) =
+            (self.cfg.inlet, self.cfg.tube, self.conveyor.take())
+        else {
+            return;
+        };
+        let feed_velocity = Feeder::velocity(&self.cfg);
+        let slab = inlet.slab_length;
+        let s = &mut self.state;
+        if !column.started {
+            for i in 0..s.len() {
+                if s.inv_mass[i] > 0.0 && axial(&tube, s.position[i]) < slab {
+                    s.hold(i, feed_velocity);
+                    column.hold(s.id[i]);
+                }
+            }
+            column.started = true;
+        }
+        let stopped = inlet.until.is_some_and(|u| self.time > u);
+        for i in 0..s.len() {
+            if s.inv_mass[i] == 0.0
+                && (stopped || axial(&tube, s.position[i]) > slab)
+                && column.release(s.id[i])
+            {
+                s.release(i);
+            }
+        }
+        if !stopped {
+            column.advance(&self.cfg, inlet.velocity * elapsed, &mut self.rng);
+            let reach = 4.0 * self.cfg.radius_max;
+            let near: Vec<(Vec3, Real)> = (0..s.len())
+                .filter(|&i| axial(&tube, s.position[i]) < reach)
+                .map(|i| (s.position[i], s.radius[i]))
+                .collect();
+            let entered = column.enter(&self.cfg, &near);
+            if !entered.is_empty() {
+                if self.cfg.laws.uses_history() {
+                    self.nlist.stash_history(&self.state);
+                }
+                let nw = self.cfg.walls.len();
+                for (x, r) in entered {
+                    let id = self.next_id;
+                    self.next_id += 1;
+                    self.state
+                        .push(id, x, feed_velocity, r, self.cfg.density, nw);
+                    let last = self.state.len() - 1;
+                    self.state.hold(last, feed_velocity);
+                    column.hold(id);
+                    self.flow.fed_count += 1;
+                    self.flow.fed_mass += self.state.mass[last];
+                }
+                self.rebuild_pending = true;
+            }
+        }
+        self.conveyor = Some(column);
     }
 
     /// Remove grains past open ends, outside the box, or escaped from the tube. `near_build`:
@@ -949,7 +1033,10 @@ impl DemBackend for NativeDem {
     fn diagnostics(&self) -> Vec<(String, f64)> {
         vec![
             ("neighbor_builds".into(), self.neighbor_builds() as f64),
-            ("inlet_backlog_grains".into(), self.feeder.backlog),
+            (
+                "inlet_backlog_grains".into(),
+                self.feeder.backlog + self.conveyor.as_ref().map_or(0.0, |c| c.unplaced as Real),
+            ),
             ("inlet_blocked_time_s".into(), self.feeder.blocked_time),
         ]
     }

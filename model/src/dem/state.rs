@@ -82,6 +82,24 @@ impl ParticleState {
         self.inv_inertia[k] = 0.0;
     }
 
+    /// Hold grain `k` to the velocity `v` (the conveyor inlet's column): 1/m = 1/I = 0, so
+    /// the integrator moves it at `v` whatever acts on it. Its mass stays its own: the
+    /// grains it pushes meet it with the pair constants of two grains (m* = m/2), as the
+    /// grains of the seeds' injected column are grains.
+    pub fn hold(&mut self, k: usize, v: Vec3) {
+        self.velocity[k] = v;
+        self.angular_velocity[k] = [0.0; 3];
+        self.inv_mass[k] = 0.0;
+        self.inv_inertia[k] = 0.0;
+    }
+
+    /// Let a held grain go: it answers forces again from its current velocity.
+    pub fn release(&mut self, k: usize) {
+        let (m, r) = (self.mass[k], self.radius[k]);
+        self.inv_mass[k] = 1.0 / m;
+        self.inv_inertia[k] = 1.0 / (0.4 * m * r * r);
+    }
+
     /// Reorder every array so that new index `k` holds old grain `order[k]`.
     pub fn permute(&mut self, order: &[usize], walls: usize) {
         fn apply<T: Copy>(v: &mut Vec<T>, order: &[usize]) {

@@ -433,11 +433,31 @@ fn default_impact_velocity() -> Q<Velocity> {
     Q::si(1.0)
 }
 
-/// Mass-flow inlet at the tube's inlet end: batches of grains placed without overlap in a
-/// slab at the given porosity, moving along the axis at `velocity`. Give `mass_flow` or `rate`.
+/// How the inlet puts grains into the tube.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum InletMode {
+    /// Batches placed at random without overlap wherever the slab has room, moving along the
+    /// axis at `velocity` (as LIGGGHTS's `insert/rate/region`): a bed pressing on the slab
+    /// slows or stops the feed, and random placement cannot exceed ~38 % solids.
+    #[default]
+    Slab,
+    /// A column packed at `porosity` pushed into the tube at `velocity` and held to that
+    /// motion over the slab (grains released as they leave it): the mass flow is enforced
+    /// whatever presses on the slab, as the seeds' simulations inject (seed 000 §4: "injected
+    /// from the bottom at a constant mass flow rate", porosity 0.51 at 0.04 m/s).
+    Conveyor,
+}
+
+/// Mass-flow inlet at the tube's inlet end, feeding grains at `porosity` along the axis at
+/// `velocity` over a slab at the tube's start, in one of two [`InletMode`]s. Give
+/// `mass_flow` or `rate`.
 #[derive(Debug, Clone, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct InletSpec {
+    /// `"slab"` (default) or `"conveyor"`.
+    #[serde(default)]
+    pub mode: InletMode,
     /// Granular mass flow, kg/s.
     pub mass_flow: Option<Q<MassFlow>>,
     /// Grains per second.
