@@ -286,6 +286,11 @@ fn checkpoints_that_do_not_fit_are_refused_naming_why() {
         "{text}"
     );
 
+    // A slab-fed run is not resumed by a conveyor (its column is not in the checkpoint).
+    let (code, text) = resume_from(&out, &[r#"inlet.mode="conveyor""#]);
+    assert_eq!(code, 2, "{text}");
+    assert!(text.contains("inlet.mode"), "{text}");
+
     let bytes = std::fs::read(&latest).unwrap();
     let cut = out.join("cut.pfc");
     std::fs::write(&cut, &bytes[..bytes.len() / 2]).unwrap();
