@@ -74,6 +74,10 @@ pub struct TubeGrid {
     /// A periodic section: the last slice neighbours the first (the tent weights wrap
     /// around the seam; the gas solver joins the two).
     pub periodic: bool,
+    /// Take each node's solid fraction over its whole grid cell dz·dx·dy instead of its
+    /// open volume (`coupling.porosity_volume = "whole_cell"`: seed 000 eq. 8 read with
+    /// the tent function normalised by the cubic grid's cell, a grid that ignores the wall).
+    pub whole_cell_porosity: bool,
 }
 
 /// Least open cross-section of a column, as a share of the largest, for it to carry nodes.
@@ -193,6 +197,7 @@ impl TubeGrid {
             face_z,
             open,
             periodic: false,
+            whole_cell_porosity: false,
         }
     }
 
@@ -390,8 +395,13 @@ pub fn finish_deposit(grid: &TubeGrid, parts: &[NodeSums], out: &mut GranularFie
             }
         }
         // (Closed nodes hold no grain and may have no volume: empty.)
+        let volume = if grid.whole_cell_porosity {
+            grid.dz * grid.dx * grid.dy
+        } else {
+            grid.volume[j]
+        };
         out.porosity.push(if solid > 0.0 {
-            1.0 - solid / grid.volume[j]
+            1.0 - solid / volume
         } else {
             1.0
         });
@@ -686,6 +696,27 @@ mod tests {
                 );
                 assert!((f.velocity[j][2] - 0.1).abs() < 1e-12);
             }
+        }
+        // Over whole cells (`porosity_volume = "whole_cell"`) the same solid is spread over
+        // the 7 × 7 mm square the 2 × 2 cells tile: each node reads its open share of it,
+        // (π/4)·s, to the lattice staircase's 3 %.
+        let mut whole = g.clone();
+        whole.whole_cell_porosity = true;
+        let mut fw = GranularFields::default();
+        deposit(&whole, &x, &v, &rr, &mut fw);
+        let cell = g.dz * g.dx * g.dy;
+        for j in 0..g.len() {
+            let solid_open = (1.0 - f.porosity[j]) * g.volume[j];
+            let solid_whole = (1.0 - fw.porosity[j]) * cell;
+            assert!((solid_whole - solid_open).abs() <= 1e-12 * solid_open.max(1e-18));
+        }
+        let quarter = std::f64::consts::FRAC_PI_4 * s;
+        for j in 20..580 {
+            assert!(
+                ((1.0 - fw.porosity[j]) - quarter).abs() < 0.03 * quarter,
+                "node {j}: {}",
+                fw.porosity[j]
+            );
         }
     }
 

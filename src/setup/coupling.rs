@@ -11,7 +11,7 @@ use plugflow_coupling::{Coupler, CouplingCheck, DragLaw, GasSolver, TubeGrid, Ve
 
 use crate::dem::DemConfig;
 use crate::gas::{carman_kozeny, DarcyGas, DarcyParams, Scheme, SimpleTubeGas, SolvePath};
-use crate::scene::{GasScheme, GasSolverPath, Scene, SceneError};
+use crate::scene::{GasScheme, GasSolverPath, PorosityVolume, Scene, SceneError};
 use crate::summary::CheckRow;
 use crate::Real;
 use std::sync::Arc;
@@ -67,6 +67,10 @@ fn gas_coupler(scene: &Scene, dem: &DemConfig) -> Result<Option<Coupler>, SceneE
             tube.slab_half,
         );
         grid.periodic = tube.periodic;
+        grid.whole_cell_porosity = f
+            .coupling
+            .as_ref()
+            .is_some_and(|c| c.porosity_volume == PorosityVolume::WholeCell);
         let d_mean = dem.radius_min + dem.radius_max;
         let params = DarcyParams {
             p0: g.pressure.si,

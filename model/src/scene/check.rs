@@ -1055,6 +1055,23 @@ fn check_coupling(f: &SceneFile, simple: bool) -> Result<(), SceneError> {
                 ));
             }
         }
+        if c.porosity_volume == PorosityVolume::WholeCell {
+            let why = if simple {
+                Some("the simple gas's cut cells need the open volume (its momentum balance is per open volume)")
+            } else if f.tube.as_ref().is_some_and(|t| t.slab.is_some()) {
+                Some("a quasi-2D slab's cells hold only the slab's volume by design")
+            } else if c.smoothing_length.is_some() {
+                Some("the smoothing conserves the solid over the open volumes")
+            } else {
+                None
+            };
+            if let Some(why) = why {
+                return Err(field_err(
+                    "coupling.porosity_volume",
+                    format!("`whole_cell` is a reading of the d'Arcy model on a full tube: {why}"),
+                ));
+            }
+        }
         if let (Some(l), Some(t)) = (c.smoothing_length, &f.tube) {
             let d = t.diameter.si;
             if !(l.si > 0.0 && l.si <= d) {
