@@ -165,6 +165,33 @@ class Scene:
         self.O.forces.reset(False)
         return ids
 
+    def _bodies_of(self, pf_ids):
+        want = set(pf_ids)
+        return [b for b, p in self.pf_id.items() if p in want]
+
+    def hold(self, pf_ids, v):
+        """Hold grains to the conveyor's feed motion: every degree of freedom blocked (YADE
+        then moves them at their velocity, deaf to forces and gravity), velocity v, no spin."""
+        if not pf_ids:
+            return
+        bodies = self.O.bodies
+        vel = self.V(*v)
+        zero = self.V(0.0, 0.0, 0.0)
+        for bid in self._bodies_of(pf_ids):
+            st = bodies[bid].state
+            st.blockedDOFs = "xyzXYZ"
+            st.vel = vel
+            st.angVel = zero
+
+    def release(self, pf_ids):
+        """Let held grains go: they answer forces again from their current velocity."""
+        if not pf_ids:
+            return
+        bodies = self.O.bodies
+        free = "XYZ" if not self.s["rotation"] else ""
+        for bid in self._bodies_of(pf_ids):
+            bodies[bid].state.blockedDOFs = free
+
     def remove(self, pf_ids):
         """Erase grains by plugflow id."""
         gone = set(pf_ids)

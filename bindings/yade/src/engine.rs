@@ -13,6 +13,8 @@ use plugflow_coupling::timing::StageTimer;
 use plugflow_coupling::{
     BackendError, DemBackend, GrainFlow, ImplicitDrag, NewParticle, ParticleView, WallForce,
 };
+use plugflow_model::dem::config::InletMode;
+use plugflow_model::dem::conveyor::Conveyor;
 use plugflow_model::dem::inlet::{leave_verdict, Feeder, Leave};
 use plugflow_model::dem::{DemConfig, NativeDem};
 use plugflow_model::rng::Rng;
@@ -147,6 +149,10 @@ pub struct Yade {
     time: f64,
     steps: u64,
     feeder: Feeder,
+    /// The conveyor inlet's column (`inlet.mode = "conveyor"`): its grains in the slab are
+    /// held in YADE with every degree of freedom blocked (YADE then moves them at the
+    /// velocity they were given, deaf to forces and gravity, as the built-in engine's 1/m = 0).
+    conveyor: Option<Conveyor>,
     rng: Rng,
     flow: GrainFlow,
     wall_names: Vec<String>,
@@ -196,8 +202,21 @@ impl Yade {
                 return Err(py_err(e));
             }
         };
+        let mut rng = Rng::new(cfg.seed);
+        let conveyor = if cfg.inlet.is_some_and(|i| i.mode == InletMode::Conveyor) {
+            match Conveyor::primed(&cfg, &mut rng) {
+                Ok(c) => Some(c),
+                Err(e) => {
+                    ALIVE.store(false, Ordering::SeqCst);
+                    return Err(format!("inlet.mode: {e}"));
+                }
+            }
+        } else {
+            None
+        };
         let mut me = Self {
-            rng: Rng::new(cfg.seed),
+            rng,
+            conveyor,
             cfg,
             scene: scene_obj,
             version: format!("YADE {version}"),
@@ -297,6 +316,10 @@ impl Yade {
             self.call(|s| s.getattr("remove")?.call1((gone,)).map(|_| ()))?;
             self.refresh()?;
         }
+        if self.conveyor.is_some() {
+            self.convey(elapsed)?;
+            return Ok(out_mass);
+        }
         let placed = self.feeder.feed(
             &self.cfg,
             self.time,
@@ -314,6 +337,53 @@ impl Yade {
             self.flow.fed_mass += m;
         }
         Ok(out_mass)
+    }
+
+    /// The conveyor's part of a feed (see [`Conveyor::feed`]): hold, release and add held
+    /// grains in YADE.
+    fn convey(&mut self, elapsed: f64) -> Result<(), String> {
+        let Some(mut column) = self.conveyor.take() else {
+            return Ok(());
+        };
+        let feed = column.feed(
+            &self.cfg,
+            self.time,
+            elapsed,
+            &self.ids,
+            &self.x,
+            &self.radius,
+            |_| true,
+            &mut self.rng,
+        );
+        let v = Feeder::velocity(&self.cfg);
+        let result = (|| -> Result<(), String> {
+            let hold: Vec<u64> = feed.hold.iter().map(|&i| self.ids[i]).collect();
+            let release: Vec<u64> = feed.release.iter().map(|&i| self.ids[i]).collect();
+            if !hold.is_empty() || !release.is_empty() {
+                self.call(|s| {
+                    s.getattr("hold")?.call1((hold, v.to_vec()))?;
+                    s.getattr("release")?.call1((release,)).map(|_| ())
+                })?;
+            }
+            if !feed.enter.is_empty() {
+                let rho = self.cfg.density;
+                let n = feed.enter.len();
+                let ids = self.insert_grains(feed.enter.iter().map(|&(x, r)| (x, v, r, rho)))?;
+                self.call(|s| {
+                    s.getattr("hold")?
+                        .call1((ids.clone(), v.to_vec()))
+                        .map(|_| ())
+                })?;
+                for id in ids {
+                    column.hold(id);
+                }
+                self.flow.fed_count += n as u64;
+                self.flow.fed_mass += self.mass[self.mass.len() - n..].iter().sum::<f64>();
+            }
+            self.refresh()
+        })();
+        self.conveyor = Some(column);
+        result
     }
 
     fn advance_steps(&mut self, steps: u64) -> Result<(), String> {

@@ -30,7 +30,7 @@
 //! together); YADE's Mindlin law integrates the shear force incrementally and damps shear
 //! with the normal coefficient.
 
-use plugflow_model::dem::config::{InitialConfig, InletMode, LawSet, RollingSet, TangentialSet};
+use plugflow_model::dem::config::{InitialConfig, LawSet, RollingSet, TangentialSet};
 use plugflow_model::dem::external::{
     beta_form_restitution, linear_cutoff_damping_ratio, linear_pairs, single_grain_mass, LinearPair,
 };
@@ -411,13 +411,6 @@ pub fn map(scene: &Scene, cfg: &DemConfig) -> Result<Setup, Refusal> {
     }
     if cfg.inlet.is_some() && cfg.tube.is_none() {
         return Err(refuse("inlet", "an inlet needs a [tube]"));
-    }
-    if cfg.inlet.is_some_and(|i| i.mode == InletMode::Conveyor) {
-        return Err(refuse(
-            "inlet.mode",
-            "the conveyor inlet is not mapped to YADE (its grains are inserted free, not \
-             held to the feed motion); use inlet.mode = \"slab\" or dem.engine = \"native\"",
-        ));
     }
     Ok(Setup {
         dt: cfg.dt,

@@ -67,6 +67,18 @@ pub struct Conveyor {
     held: Vec<u64>,
 }
 
+/// What one feed of the conveyor asks of the engine (see [`Conveyor::feed`]).
+#[derive(Debug, Default)]
+pub struct ConveyorFeed {
+    /// Indices of grains to hold to the feed motion (zero spin, the feed velocity, deaf to
+    /// forces) from now.
+    pub hold: Vec<usize>,
+    /// Indices of held grains to let go (they answer forces again from the feed velocity).
+    pub release: Vec<usize>,
+    /// New grains (centre, radius), to be added held at the feed velocity.
+    pub enter: Vec<(Vec3, Real)>,
+}
+
 /// A block of the column packed at its porosity.
 struct Block {
     grains: Vec<ColumnGrain>,
@@ -232,6 +244,61 @@ impl Conveyor {
             grains: kept.into_iter().map(|(g, _)| g).collect(),
             dropped: dropped.into_iter().map(|(g, _)| g[3]).collect(),
         }
+    }
+
+    /// One feed, `elapsed` s after the last, at `time` s, for any engine: which grains to
+    /// hold to the feed motion from now, which to release, and the column's grains that came
+    /// one radius into the tube (centre, radius; the engine adds them held and reports
+    /// their ids with [`Conveyor::hold`]). `ids`, `positions`, `radii`: every grain the
+    /// engine has; `movable(i)`: grain i answers forces (frozen grains are never taken).
+    ///
+    /// At the first feed the grains already in the slab (a tube filled by another run) join
+    /// the column; a held grain whose centre passed the slab is released; when the feed stops
+    /// (`inlet.until`) every held grain is. The column moves by the distance its grains did.
+    #[allow(clippy::too_many_arguments)]
+    pub fn feed(
+        &mut self,
+        cfg: &DemConfig,
+        time: Real,
+        elapsed: Real,
+        ids: &[u64],
+        positions: &[Vec3],
+        radii: &[Real],
+        movable: impl Fn(usize) -> bool,
+        rng: &mut Rng,
+    ) -> ConveyorFeed {
+        let mut out = ConveyorFeed::default();
+        let (Some(inlet), Some(tube)) = (cfg.inlet, cfg.tube) else {
+            return out;
+        };
+        let slab = inlet.slab_length;
+        if !self.started {
+            for (i, &x) in positions.iter().enumerate() {
+                if movable(i) && axial(&tube, x) < slab {
+                    out.hold.push(i);
+                    self.hold(ids[i]);
+                }
+            }
+            self.started = true;
+        }
+        let stopped = inlet.until.is_some_and(|u| time > u);
+        for (i, &x) in positions.iter().enumerate() {
+            if (stopped || axial(&tube, x) > slab) && self.release(ids[i]) {
+                out.release.push(i);
+            }
+        }
+        if !stopped {
+            self.advance(cfg, inlet.velocity * elapsed, rng);
+            let reach = 4.0 * cfg.radius_max;
+            let near: Vec<(Vec3, Real)> = positions
+                .iter()
+                .zip(radii)
+                .filter(|(x, _)| axial(&tube, **x) < reach)
+                .map(|(x, r)| (*x, *r))
+                .collect();
+            out.enter = self.enter(cfg, &near);
+        }
+        out
     }
 
     /// Note that the engine holds grain `id` to the feed motion.

@@ -35,7 +35,7 @@ use plugflow_coupling::{
 };
 
 use self::contact::{NoRolling, NormalLaw, RollingLaw, RollingPair, TangentialLaw};
-use self::conveyor::{axial, Conveyor};
+use self::conveyor::Conveyor;
 use self::forces::{
     chunk_forces, ChunkOut, ContactScratch, ForceInputs, GrainsIn, Laws, Spill, StepSettings,
     UniformPair,
@@ -372,58 +372,45 @@ impl NativeDem {
     /// held. At the first feed the grains already in the slab (a tube filled by another run)
     /// join the column. When the feed stops (`inlet.until`) every held grain is released.
     fn convey(&mut self, elapsed: Real) {
-        let (Some(inlet), Some(tube), Some(mut column)) =
-            (self.cfg.inlet, self.cfg.tube, self.conveyor.take())
-        else {
+        let Some(mut column) = self.conveyor.take() else {
             return;
         };
         let feed_velocity = Feeder::velocity(&self.cfg);
-        let slab = inlet.slab_length;
         let s = &mut self.state;
-        if !column.started {
-            for i in 0..s.len() {
-                if s.inv_mass[i] > 0.0 && axial(&tube, s.position[i]) < slab {
-                    s.hold(i, feed_velocity);
-                    column.hold(s.id[i]);
-                }
-            }
-            column.started = true;
+        let inv_mass = &s.inv_mass;
+        let feed = column.feed(
+            &self.cfg,
+            self.time,
+            elapsed,
+            &s.id,
+            &s.position,
+            &s.radius,
+            |i| inv_mass[i] > 0.0,
+            &mut self.rng,
+        );
+        for &i in &feed.hold {
+            s.hold(i, feed_velocity);
         }
-        let stopped = inlet.until.is_some_and(|u| self.time > u);
-        for i in 0..s.len() {
-            if s.inv_mass[i] == 0.0
-                && (stopped || axial(&tube, s.position[i]) > slab)
-                && column.release(s.id[i])
-            {
-                s.release(i);
-            }
+        for &i in &feed.release {
+            s.release(i);
         }
-        if !stopped {
-            column.advance(&self.cfg, inlet.velocity * elapsed, &mut self.rng);
-            let reach = 4.0 * self.cfg.radius_max;
-            let near: Vec<(Vec3, Real)> = (0..s.len())
-                .filter(|&i| axial(&tube, s.position[i]) < reach)
-                .map(|i| (s.position[i], s.radius[i]))
-                .collect();
-            let entered = column.enter(&self.cfg, &near);
-            if !entered.is_empty() {
-                if self.cfg.laws.uses_history() {
-                    self.nlist.stash_history(&self.state);
-                }
-                let nw = self.cfg.walls.len();
-                for (x, r) in entered {
-                    let id = self.next_id;
-                    self.next_id += 1;
-                    self.state
-                        .push(id, x, feed_velocity, r, self.cfg.density, nw);
-                    let last = self.state.len() - 1;
-                    self.state.hold(last, feed_velocity);
-                    column.hold(id);
-                    self.flow.fed_count += 1;
-                    self.flow.fed_mass += self.state.mass[last];
-                }
-                self.rebuild_pending = true;
+        if !feed.enter.is_empty() {
+            if self.cfg.laws.uses_history() {
+                self.nlist.stash_history(&self.state);
             }
+            let nw = self.cfg.walls.len();
+            for (x, r) in feed.enter {
+                let id = self.next_id;
+                self.next_id += 1;
+                self.state
+                    .push(id, x, feed_velocity, r, self.cfg.density, nw);
+                let last = self.state.len() - 1;
+                self.state.hold(last, feed_velocity);
+                column.hold(id);
+                self.flow.fed_count += 1;
+                self.flow.fed_mass += self.state.mass[last];
+            }
+            self.rebuild_pending = true;
         }
         self.conveyor = Some(column);
     }
