@@ -505,3 +505,89 @@ fn l_the_feed_stops_at_inlet_until() {
         "LIGGGHTS fed {stopped}, the built-in engine {native}"
     );
 }
+
+/// The conveyor inlet on LIGGGHTS (`inlet.mode = "conveyor"`): plugflow creates the column's
+/// grains and LIGGGHTS's `fix freeze` holds those in the slab (group `pf_held`), as the
+/// built-in engine holds them with 1/m = 0. With no gas the grains fed pile up on the inlet,
+/// and the conveyor still feeds the scene's rate on both engines: grains entered = grains
+/// per metre of column × (distance moved − one radius), within 3σ of the Poisson count of
+/// the block the entry line crosses (as model/src/dem/conveyor.rs's engine test); every
+/// grain deep in the slab moves at exactly the feed velocity with no spin, and the pile
+/// above is free. Checkpointed at 0.3 s and restored, the run feeds on from its column.
+#[test]
+fn m_the_conveyor_feeds_liggghts_as_the_built_in_engine() {
+    use plugflow_coupling::DemBackend;
+    let _g = SERIAL.lock().unwrap_or_else(|p| p.into_inner());
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let s = plugflow::scene::Scene::load(
+        &root.join("cases/vertical_plug.toml"),
+        &["dem.threads=1".into(), "inlet.mode=\"conveyor\"".into()],
+    )
+    .unwrap();
+    let cfg = plugflow_model::dem_config(&s).unwrap();
+    let (inlet, tube) = (cfg.inlet.unwrap(), cfg.tube.unwrap());
+    let seconds = 0.6;
+    let steps = (seconds / cfg.dt).round() as u64;
+    let per_metre = inlet.rate / inlet.velocity;
+    let block = per_metre * 4.0 * 2.0 * cfg.radius_max;
+    let feed_v: Vec<f64> = tube.axis.iter().map(|a| a * inlet.velocity).collect();
+    let mut native = plugflow_model::dem::NativeDem::new(cfg.clone()).unwrap();
+    native.advance(steps).unwrap();
+    let mut lg = plugflow_coupling::abi::AbiBackend::load(&shim(), &s.to_json())
+        .unwrap_or_else(|e| panic!("{e}"));
+    // Half, a checkpoint taken and restored, the other half.
+    lg.advance(steps / 2).unwrap();
+    let saved = lg.save_state().unwrap();
+    lg.restore_state(&saved).unwrap();
+    lg.advance(steps - steps / 2).unwrap();
+    for (name, dem) in [
+        ("native", &native as &dyn DemBackend),
+        ("liggghts", &lg as &dyn DemBackend),
+    ] {
+        let fed = dem.flow().unwrap().fed_count as f64;
+        let expected = per_metre * (inlet.velocity * seconds - cfg.radius_max);
+        let p = dem.particles();
+        let (mut deep, mut above_moving) = (0, 0);
+        for i in 0..p.len() {
+            let a: f64 = (0..3)
+                .map(|k| (p.position[i][k] - tube.origin[k]) * tube.axis[k])
+                .sum();
+            // Below the slab's end by more than a stride's travel plus a diameter: held.
+            if a < inlet.slab_length - 4.0 * cfg.radius_max {
+                deep += 1;
+                for (k, v) in feed_v.iter().enumerate() {
+                    assert!(
+                        (p.velocity[i][k] - v).abs() < 1e-12,
+                        "{name}: grain {} at {a} m moves at {:?}",
+                        p.id[i],
+                        p.velocity[i]
+                    );
+                    assert!(p.angular_velocity[i][k].abs() < 1e-12, "{name}");
+                }
+            } else if a > inlet.slab_length + 2.0 * cfg.radius_max {
+                let dv: f64 = (0..3).map(|k| (p.velocity[i][k] - feed_v[k]).powi(2)).sum();
+                if dv > 1e-6 {
+                    above_moving += 1;
+                }
+            }
+        }
+        eprintln!(
+            "{name}: {fed} fed (expected {expected:.0}), {} grains, {deep} held deep in the \
+             slab, {above_moving} free above it",
+            p.len()
+        );
+        assert!(
+            (fed - expected).abs() < 3.0 * block.sqrt(),
+            "{name}: {fed} grains fed in {seconds} s, expected {expected}"
+        );
+        assert_eq!(
+            p.len() as f64,
+            fed,
+            "{name}: every grain fed is in the tube"
+        );
+        assert!(
+            deep > 100 && above_moving > 0,
+            "{name}: {deep} grains held deep in the slab, {above_moving} free above it"
+        );
+    }
+}

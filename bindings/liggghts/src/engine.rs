@@ -10,10 +10,14 @@ use plugflow_coupling::{
     BackendError, DemBackend, GrainFlow, ImplicitDrag, NewParticle, ParticleView, Ranks, Reduce,
     WallForce,
 };
+use plugflow_model::dem::config::InletMode;
+use plugflow_model::dem::conveyor::Conveyor;
+use plugflow_model::dem::inlet::Feeder;
 use plugflow_model::dem::{DemConfig, NativeDem};
+use plugflow_model::rng::Rng;
 use plugflow_model::scene::Scene;
 
-use crate::input::{map, map_user, Mapped, Outlet, INSERT_FIX};
+use crate::input::{map, map_user, Mapped, Outlet, HELD_GROUP, INSERT_FIX};
 
 extern "C" {
     fn pfl_open(
@@ -59,6 +63,10 @@ extern "C" {
     ) -> c_int;
 }
 
+/// Most steps between two feeds of the conveyor's column (as the YADE engine's stride; the
+/// column moves 4 µm in 50 steps of the seeds' case).
+const CONVEYOR_STRIDE: u64 = 50;
+
 /// LIGGGHTS instances share MPI's process-wide state: open and close one at a time.
 static OPEN_CLOSE: Mutex<()> = Mutex::new(());
 
@@ -89,6 +97,11 @@ pub struct Liggghts {
     /// The scene runs a user's own input (`dem.liggghts_input`).
     user_input_given: bool,
     pub flow: PfDemFlow,
+    /// The conveyor inlet's column (`inlet.mode = "conveyor"`, one process): plugflow
+    /// creates its grains and holds those in the slab in [`HELD_GROUP`] (`fix freeze`).
+    conveyor: Option<Conveyor>,
+    /// The column's random numbers (its packing), seeded as the built-in engine's.
+    rng: Rng,
     /// Grains created through pf_dem_insert (not counted as fed).
     inserted: std::collections::HashSet<u64>,
     /// Every grain id seen so far, one bit per id (LIGGGHTS's tags are small integers
@@ -178,6 +191,8 @@ impl Liggghts {
             keep_log: None,
             user_input_given: user_input.is_some(),
             flow: PfDemFlow::default(),
+            conveyor: None,
+            rng: Rng::new(0),
             inserted: Default::default(),
             seen: Vec::new(),
             ids: Vec::new(),
@@ -187,7 +202,22 @@ impl Liggghts {
             radius: Vec::new(),
             mass: Vec::new(),
         };
-        me.feeds = me.cfg.inlet.is_some() || user_input.is_some();
+        me.feeds = me.lammps_feeds();
+        me.rng = Rng::new(me.cfg.seed);
+        if me.conveys() {
+            if me.ranks.size > 1 {
+                return Err(format!(
+                    "inlet.mode: the conveyor inlet on LIGGGHTS runs on one process (its \
+                     column is fed from every grain near the inlet, which under MPI lie on \
+                     several ranks); this run has {} ranks: use inlet.mode = \"slab\" or \
+                     one process",
+                    me.ranks.size
+                ));
+            }
+            let column =
+                Conveyor::primed(&me.cfg, &mut me.rng).map_err(|e| format!("inlet.mode: {e}"))?;
+            me.conveyor = Some(column);
+        }
         me.start(Start::Fresh(initial))?;
         Ok(me)
     }
@@ -362,6 +392,11 @@ impl Liggghts {
             },
             seen: self.seen.clone(),
             restart,
+            column: match &self.conveyor {
+                Some(c) => postcard::to_allocvec(c)
+                    .map_err(|e| format!("cannot encode the conveyor's column: {e}"))?,
+                None => Vec::new(),
+            },
         }
         .encode())
     }
@@ -391,8 +426,31 @@ impl Liggghts {
         self.needs_setup = true;
         // The input makes the insertion fix again: a feed already stopped stops again at
         // the next advance.
-        self.feeds = self.cfg.inlet.is_some() || self.user_input_given;
+        self.feeds = self.lammps_feeds();
         self.feed_stopped = false;
+        match (self.conveys(), st.column.is_empty()) {
+            (true, false) => {
+                self.conveyor = Some(
+                    postcard::from_bytes(&st.column)
+                        .map_err(|e| format!("the conveyor's column cannot be read: {e}"))?,
+                )
+            }
+            (true, true) => {
+                return Err(
+                    "`inlet.mode`: the scene feeds through a conveyor, the checkpoint \
+                            has no conveyor column (its run fed through the slab)"
+                        .into(),
+                )
+            }
+            (false, false) => {
+                return Err(
+                    "`inlet.mode`: the checkpoint's run fed through a conveyor, the \
+                            scene does not"
+                        .into(),
+                )
+            }
+            (false, true) => {}
+        }
         let started = self.start(Start::Restart(path.clone()));
         let _ = std::fs::remove_file(&path);
         started
@@ -548,6 +606,90 @@ impl Liggghts {
             return self.advance_fed(steps - before);
         }
         self.advance_fed(steps)
+    }
+
+    /// The scene feeds through the conveyor (plugflow's column, not an insertion fix).
+    fn conveys(&self) -> bool {
+        self.cfg
+            .inlet
+            .is_some_and(|i| i.mode == InletMode::Conveyor)
+    }
+
+    /// LIGGGHTS inserts grains itself: the slab inlet's insertion fix or a user's input.
+    fn lammps_feeds(&self) -> bool {
+        (self.cfg.inlet.is_some() && !self.conveys()) || self.user_input_given
+    }
+
+    /// The conveyor's part of a feed, `elapsed` s after the last (see [`Conveyor::feed`]):
+    /// grains to hold get the feed velocity and no spin, the column's new grains are
+    /// created at it and counted as fed, and [`HELD_GROUP`] is made the held ones again.
+    fn convey(&mut self, elapsed: f64) -> Result<(), EngineError> {
+        let Some(mut column) = self.conveyor.take() else {
+            return Ok(());
+        };
+        let done = self.convey_column(&mut column, elapsed);
+        self.conveyor = Some(column);
+        done
+    }
+
+    fn convey_column(&mut self, column: &mut Conveyor, elapsed: f64) -> Result<(), EngineError> {
+        let feed = column.feed(
+            &self.cfg,
+            self.time,
+            elapsed,
+            &self.ids,
+            &self.x,
+            &self.radius,
+            |_| true,
+            &mut self.rng,
+        );
+        let v = Feeder::velocity(&self.cfg);
+        if !feed.hold.is_empty() {
+            let vel = self.atom_ptr("v")? as *const *mut f64;
+            let spin = self.atom_ptr("omega")? as *const *mut f64;
+            // SAFETY: per-atom arrays of nlocal rows of 3; the indices are of the last
+            // refresh, and nothing changed the atoms since.
+            unsafe {
+                for &i in &feed.hold {
+                    let (a, b) = (*vel.add(i), *spin.add(i));
+                    for (k, vk) in v.iter().enumerate() {
+                        *a.add(k) = *vk;
+                        *b.add(k) = 0.0;
+                    }
+                }
+            }
+        }
+        let mut changed = !feed.hold.is_empty() || !feed.release.is_empty();
+        if !feed.enter.is_empty() {
+            let n = feed.enter.len();
+            let x: Vec<[f64; 3]> = feed.enter.iter().map(|e| e.0).collect();
+            let r: Vec<f64> = feed.enter.iter().map(|e| e.1).collect();
+            let ids = self.insert(&x, &vec![v; n], &r, &vec![self.mapped.grain_density; n])?;
+            // Fed, not inserted: the feed counters take them.
+            for id in ids {
+                self.inserted.remove(&id);
+                column.hold(id);
+            }
+            self.flow.fed_count += n as u64;
+            self.flow.fed_mass = self.flow.fed_count as f64 * self.mapped.grain_mass;
+            changed = true;
+        }
+        if changed {
+            // LIGGGHTS 3.8's group command cannot empty a group, nor delete one a fix
+            // uses: the freeze goes, the group is made anew, the freeze comes back (the
+            // last fix again; the next run sets up).
+            self.command("unfix pf_hold")?;
+            self.command(&format!("group {HELD_GROUP} delete"))?;
+            self.command(&format!("group {HELD_GROUP} type 2"))?;
+            for chunk in column.held().chunks(200) {
+                let list: Vec<String> = chunk.iter().map(|i| i.to_string()).collect();
+                self.command(&format!("group {HELD_GROUP} id {}", list.join(" ")))?;
+            }
+            self.command(&format!("fix pf_hold {HELD_GROUP} freeze"))?;
+            self.needs_setup = true;
+            self.refresh()?;
+        }
+        Ok(())
     }
 
     /// The step at which the scene's feed stops, while it has not (None: it runs on).
@@ -1008,13 +1150,16 @@ enum Start {
 /// of the engine (its step count, feed and outflow counters, which grains it inserted and
 /// which it has seen, so the resumed run counts the feed as the straight one does).
 /// Bytes: `MAGIC | steps u64 | flow (u64 f64 u64 f64 u64) | n u64, inserted ids u64 × n |
-/// m u64, seen words u64 × m | k u64, restart file k bytes`, little-endian.
+/// m u64, seen words u64 × m | k u64, restart file k bytes | the conveyor's column (postcard,
+/// to the end; none without a conveyor)`, little-endian.
 struct SavedState {
     steps: u64,
     flow: PfDemFlow,
     inserted: Vec<u64>,
     seen: Vec<u64>,
     restart: Vec<u8>,
+    /// The conveyor's column (postcard, as the built-in engine's), empty without one.
+    column: Vec<u8>,
 }
 
 impl SavedState {
@@ -1039,6 +1184,7 @@ impl SavedState {
         }
         u(self.restart.len() as u64, &mut b);
         b.extend_from_slice(&self.restart);
+        b.extend_from_slice(&self.column);
         b
     }
 
@@ -1075,17 +1221,19 @@ impl SavedState {
         let inserted = list()?;
         let seen = list()?;
         let k = u()? as usize;
-        let restart = bytes
-            .get(at..)
-            .filter(|r| r.len() == k)
+        let restart = at
+            .checked_add(k)
+            .and_then(|end| bytes.get(at..end))
             .ok_or_else(|| bad("the restart file is cut short"))?
             .to_vec();
+        let column = bytes[at + k..].to_vec();
         Ok(Self {
             steps,
             flow,
             inserted,
             seen,
             restart,
+            column,
         })
     }
 }
@@ -1124,8 +1272,20 @@ impl DemBackend for Liggghts {
     fn step_count(&self) -> u64 {
         self.steps
     }
+    /// With the conveyor, in strides of at most [`CONVEYOR_STRIDE`] steps, the column fed
+    /// after each (the coupled run's exchanges are shorter than a stride).
     fn advance(&mut self, steps: u64) -> Result<(), BackendError> {
-        Liggghts::advance(self, steps).map_err(engine_error)
+        if self.conveyor.is_none() {
+            return Liggghts::advance(self, steps).map_err(engine_error);
+        }
+        let mut left = steps;
+        while left > 0 {
+            let k = left.min(CONVEYOR_STRIDE);
+            Liggghts::advance(self, k).map_err(engine_error)?;
+            self.convey(k as f64 * self.cfg.dt).map_err(engine_error)?;
+            left -= k;
+        }
+        Ok(())
     }
     fn particles(&self) -> ParticleView<'_> {
         ParticleView {

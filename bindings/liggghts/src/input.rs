@@ -65,6 +65,9 @@ pub struct Mapped {
 /// The id of the scene inlet's insertion fix.
 pub const INSERT_FIX: &str = "pf_ins";
 
+/// The group of the conveyor's grains held to the feed motion (`fix freeze`).
+pub const HELD_GROUP: &str = "pf_held";
+
 fn axis_index(axis: [f64; 3]) -> Option<(usize, f64)> {
     (0..3).find_map(|k| {
         let others = (0..3).filter(|&j| j != k).all(|j| axis[j].abs() < 1e-12);
@@ -87,15 +90,15 @@ fn refuse_slab(cfg: &DemConfig) -> Result<(), Refusal> {
     Ok(())
 }
 
-/// The conveyor inlet holds grains to the feed motion (1/m = 0) until they leave the slab:
-/// the built-in engine's alone (LIGGGHTS's `fix insert/rate/region` places them free).
+/// A user's own input feeds with its own insertion fixes: the conveyor (plugflow's column,
+/// held by `fix freeze`) is mapped only with plugflow's input.
 fn refuse_conveyor(cfg: &DemConfig) -> Result<(), Refusal> {
     if cfg.inlet.is_some_and(|i| i.mode == InletMode::Conveyor) {
         return Err(refuse(
             "inlet.mode",
-            "the conveyor inlet is not mapped to LIGGGHTS (its insertion fixes place grains \
-             free, not held to the feed motion); use inlet.mode = \"slab\" or \
-             dem.engine = \"native\"",
+            "the conveyor inlet is not mapped onto a user's own LIGGGHTS input (its \
+             insertion fixes place grains free, not held to the feed motion); use \
+             inlet.mode = \"slab\" or plugflow's own mapping of the scene",
         ));
     }
     Ok(())
@@ -164,7 +167,6 @@ fn hertz_history(
 
 pub fn map(scene: &Scene, cfg: &DemConfig) -> Result<Mapped, Refusal> {
     refuse_slab(cfg)?;
-    refuse_conveyor(cfg)?;
     refuse_frozen(cfg)?;
     let Some(m) = single_grain_mass(cfg) else {
         return Err(refuse(
@@ -331,7 +333,7 @@ pub fn map(scene: &Scene, cfg: &DemConfig) -> Result<Mapped, Refusal> {
                 position: t.origin[a],
             });
         }
-        if let Some(inl) = &cfg.inlet {
+        if let Some(inl) = cfg.inlet.as_ref().filter(|i| i.mode != InletMode::Conveyor) {
             let (lo_s, hi_s) = (t.origin[a], t.origin[a] + sign * inl.slab_length);
             let others: Vec<f64> = (0..3).filter(|&j| j != a).map(|j| t.origin[j]).collect();
             push(format!(
@@ -377,6 +379,15 @@ pub fn map(scene: &Scene, cfg: &DemConfig) -> Result<Mapped, Refusal> {
     }
     push("fix pf_integrate all nve/sphere".into());
     push_fluid_force(&mut c);
+    if cfg.inlet.is_some_and(|i| i.mode == InletMode::Conveyor) {
+        // The conveyor's column: plugflow creates its grains (create_atoms) and keeps the
+        // ones in the slab in this group, whose force and torque `fix freeze` zeroes after
+        // gravity, the walls and the fluid force (it is the last fix): they move at the feed
+        // velocity they were given with no spin, as the built-in engine's 1/m = 0. The
+        // group starts empty (no grain has the walls' type 2).
+        c.push(format!("group {HELD_GROUP} type 2"));
+        c.push(format!("fix pf_hold {HELD_GROUP} freeze"));
+    }
     c.push("thermo 100000000".into());
     Ok(Mapped {
         commands: c,

@@ -319,6 +319,11 @@ impl Conveyor {
         }
     }
 
+    /// Ids of the grains held to the feed motion, ascending.
+    pub fn held(&self) -> &[u64] {
+        &self.held
+    }
+
     /// Whether grain `id` is held to the feed motion.
     pub fn holds(&self, id: u64) -> bool {
         self.held.binary_search(&id).is_ok()
