@@ -207,6 +207,8 @@ fn h_validate_runs_liggghts_s_own_refusals() {
         "--set",
         "tube.slab=\"1.5 mm\"",
         "--set",
+        "inlet.mode=\"slab\"",
+        "--set",
         "inlet.velocity=\"0.2 m/s\"",
     ]);
     assert_eq!(code, 2, "{text}");
@@ -238,6 +240,8 @@ fn i_liggghts_checkpoint_restores_the_engine() {
         &[
             "dem.engine=liggghts".to_string(),
             "contact.tangential=history".to_string(),
+            // The slab inlet's batches (below); the conveyor's restore: test m_.
+            "inlet.mode=\"slab\"".to_string(),
         ],
     )
     .unwrap();
@@ -348,6 +352,9 @@ fn j_liggghts_run_resumes_from_its_checkpoint() {
             "contact.tangential=history",
             "--set",
             "output.checkpoint_interval=0.1 s",
+            // LIGGGHTS's own insertion fix restored (below); the conveyor's: test m_.
+            "--set",
+            "inlet.mode=\"slab\"",
             "--set",
             &isolate,
             "--quiet",

@@ -260,6 +260,9 @@ fn c_the_vertical_case_s_first_second_on_1_and_2_ranks() {
                 "1",
                 "--set",
                 "dem.engine=liggghts",
+                // The conveyor on LIGGGHTS runs on one process: the slab inlet here.
+                "--set",
+                "inlet.mode=\"slab\"",
                 "--set",
                 "output.settling_time=\"0.8 s\"",
                 "--quiet",
@@ -294,6 +297,29 @@ fn c_the_vertical_case_s_first_second_on_1_and_2_ranks() {
             "no outflow in the first second"
         );
     }
+    // The case's own conveyor inlet on 2 ranks: refused before the run, naming the field.
+    let out = out_dir("vertical_conveyor2");
+    let o = mpirun(
+        2,
+        &[
+            "run",
+            case.to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+            "--duration",
+            "0.01",
+            "--set",
+            "dem.engine=liggghts",
+            "--quiet",
+        ],
+    );
+    assert!(!o.status.success(), "{}", said(&o));
+    assert!(
+        said(&o).contains("inlet.mode") && said(&o).contains("one process"),
+        "{}",
+        said(&o)
+    );
+    let _ = std::fs::remove_dir_all(&out);
 }
 
 /// Checkpoints under MPI: every rank takes the engine's state (LIGGGHTS's `write_restart`
@@ -400,6 +426,8 @@ fn d_a_run_on_2_ranks_resumes_from_its_checkpoint() {
             case,
             "--set",
             "dem.engine=liggghts",
+            "--set",
+            "inlet.mode=\"slab\"",
             "--set",
             "contact.tangential=history",
             "--set",

@@ -286,8 +286,9 @@ fn checkpoints_that_do_not_fit_are_refused_naming_why() {
         "{text}"
     );
 
-    // A slab-fed run is not resumed by a conveyor (its column is not in the checkpoint).
-    let (code, text) = resume_from(&out, &[r#"inlet.mode="conveyor""#]);
+    // A conveyor-fed run (the case's inlet) is not resumed by the slab inlet (its column
+    // would be dropped).
+    let (code, text) = resume_from(&out, &[r#"inlet.mode="slab""#]);
     assert_eq!(code, 2, "{text}");
     assert!(text.contains("inlet.mode"), "{text}");
 
@@ -361,8 +362,12 @@ fn a_run_starts_from_another_runs_filled_tube() {
         taken + n("grains_fed") - n("grains_out") - n("grains_lost"),
         "{s}"
     );
-    // Its own feed only: 0.05 s of 2.49 kg/h of 1.35e-6 kg grains is ~26.
-    assert!((15..40).contains(&n("grains_fed")), "{s}");
+    // Its own feed only: the case's conveyor starts a fresh column below the inlet, whose
+    // grains enter once their centre is one radius in: 12 850 grains per m of column ×
+    // (0.04 m/s × 0.05 s − 0.7 mm) ≈ 17, within 3σ (25) of the Poisson count of the
+    // 4-diameter block the entry line crosses (~72 grains); its first layer may meet the
+    // held grains the tube already had there (counted as owed, not fed).
+    assert!((1..45).contains(&n("grains_fed")), "{s}");
     let log = std::fs::read_to_string(next.join("log.plugflow")).unwrap();
     assert!(log.contains(&format!("{taken} grains")), "{log}");
 
