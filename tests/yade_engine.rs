@@ -282,56 +282,13 @@ fn the_conveyor_feeds_yade_as_the_built_in_engine() {
     let _g = SERIAL.lock().unwrap_or_else(|p| p.into_inner());
     let s = vertical(&["contact.tangential=history", "inlet.mode=\"conveyor\""]);
     let cfg = plugflow_model::dem_config(&s).unwrap();
-    let (inlet, tube) = (cfg.inlet.unwrap(), cfg.tube.unwrap());
     let seconds = 0.6;
     let steps = (seconds / cfg.dt).round() as u64;
-    let per_metre = inlet.rate / inlet.velocity;
-    let expected = per_metre * (inlet.velocity * seconds - cfg.radius_max);
-    let block = per_metre * 4.0 * 2.0 * cfg.radius_max;
-    let feed_v: Vec<f64> = tube.axis.iter().map(|a| a * inlet.velocity).collect();
     let mut native = plugflow_model::dem::NativeDem::new(cfg.clone()).unwrap();
     native.advance(steps).unwrap();
     let mut yade = AbiBackend::load(&shim(), &s.to_json()).unwrap_or_else(|e| panic!("{e}"));
     yade.advance(steps).unwrap();
     for (name, dem) in [("native", &native as &dyn DemBackend), ("yade", &yade)] {
-        let fed = dem.flow().unwrap().fed_count as f64;
-        assert!(
-            (fed - expected).abs() < 3.0 * block.sqrt(),
-            "{name}: {fed} grains fed in {seconds} s, expected {expected}"
-        );
-        let p = dem.particles();
-        let (mut deep, mut above_moving) = (0, 0);
-        for i in 0..p.len() {
-            let rel: Vec<f64> = (0..3).map(|k| p.position[i][k] - tube.origin[k]).collect();
-            let a: f64 = (0..3).map(|k| rel[k] * tube.axis[k]).sum();
-            // Below the slab's end by more than a feed stride's travel plus a diameter:
-            // still held on either engine.
-            if a < inlet.slab_length - 4.0 * cfg.radius_max {
-                deep += 1;
-                for (k, v) in feed_v.iter().enumerate() {
-                    assert!(
-                        (p.velocity[i][k] - v).abs() < 1e-12,
-                        "{name}: grain {} at {a} m moves at {:?}",
-                        p.id[i],
-                        p.velocity[i]
-                    );
-                    assert!(p.angular_velocity[i][k].abs() < 1e-12, "{name}");
-                }
-            } else if a > inlet.slab_length + 2.0 * cfg.radius_max {
-                let dv: f64 = (0..3).map(|k| (p.velocity[i][k] - feed_v[k]).powi(2)).sum();
-                if dv > 1e-6 {
-                    above_moving += 1;
-                }
-            }
-        }
-        eprintln!(
-            "{name}: {} fed (expected {expected:.0}), {deep} held deep in the slab, \
-             {above_moving} free above it",
-            dem.flow().unwrap().fed_count
-        );
-        assert!(
-            deep > 100 && above_moving > 0,
-            "{name}: {deep} grains held deep in the slab, {above_moving} free above it"
-        );
+        common::assert_conveyor_feeds(name, dem, &cfg, seconds);
     }
 }

@@ -98,3 +98,61 @@ pub fn run_case(
     };
     (code, text, out, summary)
 }
+
+/// The conveyor inlet's checks on any engine after `seconds` of the vertical case without
+/// gas: grains fed = grains per metre of column × (distance moved − one radius), within 3σ of
+/// the Poisson count of the 4-diameter block the entry line crosses (as
+/// model/src/dem/conveyor.rs's engine test); every grain deeper in the slab than a stride's
+/// travel plus a diameter moves at exactly the feed velocity with no spin; some grains above
+/// the slab are free. Returns (grains fed, grains held deep, grains free above).
+pub fn assert_conveyor_feeds(
+    name: &str,
+    dem: &dyn plugflow_coupling::DemBackend,
+    cfg: &plugflow::dem::DemConfig,
+    seconds: f64,
+) -> (f64, usize, usize) {
+    let (inlet, tube) = (cfg.inlet.unwrap(), cfg.tube.unwrap());
+    let per_metre = inlet.rate / inlet.velocity;
+    let expected = per_metre * (inlet.velocity * seconds - cfg.radius_max);
+    let block = per_metre * 4.0 * 2.0 * cfg.radius_max;
+    let feed_v: Vec<f64> = tube.axis.iter().map(|a| a * inlet.velocity).collect();
+    let fed = dem.flow().unwrap().fed_count as f64;
+    let p = dem.particles();
+    let (mut deep, mut above_moving) = (0, 0);
+    for i in 0..p.len() {
+        let a: f64 = (0..3)
+            .map(|k| (p.position[i][k] - tube.origin[k]) * tube.axis[k])
+            .sum();
+        if a < inlet.slab_length - 4.0 * cfg.radius_max {
+            deep += 1;
+            for (k, v) in feed_v.iter().enumerate() {
+                assert!(
+                    (p.velocity[i][k] - v).abs() < 1e-12,
+                    "{name}: grain {} at {a} m moves at {:?}",
+                    p.id[i],
+                    p.velocity[i]
+                );
+                assert!(p.angular_velocity[i][k].abs() < 1e-12, "{name}");
+            }
+        } else if a > inlet.slab_length + 2.0 * cfg.radius_max {
+            let dv: f64 = (0..3).map(|k| (p.velocity[i][k] - feed_v[k]).powi(2)).sum();
+            if dv > 1e-6 {
+                above_moving += 1;
+            }
+        }
+    }
+    eprintln!(
+        "{name}: {fed} fed (expected {expected:.0}), {} grains, {deep} held deep in the slab, \
+         {above_moving} free above it",
+        p.len()
+    );
+    assert!(
+        (fed - expected).abs() < 3.0 * block.sqrt(),
+        "{name}: {fed} grains fed in {seconds} s, expected {expected}"
+    );
+    assert!(
+        deep > 100 && above_moving > 0,
+        "{name}: {deep} grains held deep in the slab, {above_moving} free above it"
+    );
+    (fed, deep, above_moving)
+}
