@@ -83,6 +83,10 @@ fn cli_runs_a_case_on_yade() {
             "dem.engine=yade",
             "--set",
             "contact.tangential=history",
+            // One thread: the case's two would give YADE two OpenMP threads, and two
+            // spinning YADE processes on CI's two cores (tests run side by side) crawl.
+            "--set",
+            "dem.threads=1",
             "--quiet",
         ])
         .output()
@@ -184,6 +188,9 @@ fn crosscheck_on_three_engines() {
         "output.settling_time=0.3 s",
         "--set",
         "contact.tangential=history",
+        // One thread per engine (see cli_runs_a_case_on_yade).
+        "--set",
+        "dem.threads=1",
         "--out",
         out.to_str().unwrap(),
     ]);

@@ -14,8 +14,9 @@ _scene = None
 
 def boot(threads, path):
     """Import YADE once per process: OpenMP reads OMP_NUM_THREADS when YADE loads, and
-    `import yade` prints a banner we keep off the host's stdout."""
-    os.environ.setdefault("OMP_NUM_THREADS", str(threads))
+    `import yade` prints a banner we keep off the host's stdout. The scene's `dem.threads`
+    wins over an inherited OMP_NUM_THREADS: the scene says how many cores the run may use."""
+    os.environ["OMP_NUM_THREADS"] = str(threads)
     if path not in sys.path:
         sys.path.insert(0, path)
     banner = io.StringIO()
