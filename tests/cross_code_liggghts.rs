@@ -152,7 +152,7 @@ fn g_isolated_engine_death_is_an_error_not_a_crash() {
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));
     let out = std::env::temp_dir().join(format!("plugflow-lg-iso-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&out);
-    let run = std::process::Command::new(env!("CARGO_BIN_EXE_plugflow"))
+    let mut run = std::process::Command::new(env!("CARGO_BIN_EXE_plugflow"))
         .args([
             "run",
             root.join("cases/vertical_plug.toml").to_str().unwrap(),
@@ -167,8 +167,19 @@ fn g_isolated_engine_death_is_an_error_not_a_crash() {
         .stderr(std::process::Stdio::piped())
         .spawn()
         .unwrap();
-    // Let it run a little, then kill the engine's process (not plugflow's).
-    std::thread::sleep(std::time::Duration::from_secs(3));
+    // Once the run is stepping (its first sample is in timeseries.csv: a fixed sleep raced
+    // the engine's set-up on a busy machine, where a death then is a set-up error, exit 2),
+    // kill the engine's process (not plugflow's).
+    let series = out.join("timeseries.csv");
+    let started = std::time::Instant::now();
+    while std::fs::read_to_string(&series).map_or(0, |t| t.lines().count()) < 2 {
+        assert!(
+            run.try_wait().unwrap().is_none(),
+            "the run ended before its first sample"
+        );
+        assert!(started.elapsed().as_secs() < 300, "no sample after 300 s");
+        std::thread::sleep(std::time::Duration::from_millis(100));
+    }
     let host = std::process::Command::new("pgrep")
         .args(["-P", &run.id().to_string(), "-f", "plugflow-dem-host"])
         .output()

@@ -53,6 +53,13 @@ extern "C" {
         err: *mut c_char,
         len: usize,
     ) -> c_int;
+    fn pfl_group_bit(
+        lmp: *mut c_void,
+        name: *const c_char,
+        out: *mut c_int,
+        err: *mut c_char,
+        len: usize,
+    ) -> c_int;
     fn pfl_extract_fix(
         lmp: *mut c_void,
         id: *const c_char,
@@ -453,7 +460,15 @@ impl Liggghts {
         }
         let started = self.start(Start::Restart(path.clone()));
         let _ = std::fs::remove_file(&path);
-        started
+        started?;
+        // The restart file brings the masks back; set them from the column all the same,
+        // which is what the run goes by.
+        if let Some(column) = self.conveyor.take() {
+            let marked = self.mark_held(&column);
+            self.conveyor = Some(column);
+            marked?;
+        }
+        Ok(())
     }
 
     /// A user's own input builds its box and grains with its own commands (and may read
@@ -622,7 +637,8 @@ impl Liggghts {
 
     /// The conveyor's part of a feed, `elapsed` s after the last (see [`Conveyor::feed`]):
     /// grains to hold get the feed velocity and no spin, the column's new grains are
-    /// created at it and counted as fed, and [`HELD_GROUP`] is made the held ones again.
+    /// created at it and counted as fed, and [`HELD_GROUP`]'s mask bit marks the held ones
+    /// again (see [`Liggghts::mark_held`]).
     fn convey(&mut self, elapsed: f64) -> Result<(), EngineError> {
         let Some(mut column) = self.conveyor.take() else {
             return Ok(());
@@ -659,7 +675,7 @@ impl Liggghts {
                 }
             }
         }
-        let mut changed = !feed.hold.is_empty() || !feed.release.is_empty();
+        let changed = !feed.hold.is_empty() || !feed.release.is_empty() || !feed.enter.is_empty();
         if !feed.enter.is_empty() {
             let n = feed.enter.len();
             let x: Vec<[f64; 3]> = feed.enter.iter().map(|e| e.0).collect();
@@ -672,22 +688,38 @@ impl Liggghts {
             }
             self.flow.fed_count += n as u64;
             self.flow.fed_mass = self.flow.fed_count as f64 * self.mapped.grain_mass;
-            changed = true;
         }
         if changed {
-            // LIGGGHTS 3.8's group command cannot empty a group, nor delete one a fix
-            // uses: the freeze goes, the group is made anew, the freeze comes back (the
-            // last fix again; the next run sets up).
-            self.command("unfix pf_hold")?;
-            self.command(&format!("group {HELD_GROUP} delete"))?;
-            self.command(&format!("group {HELD_GROUP} type 2"))?;
-            for chunk in column.held().chunks(200) {
-                let list: Vec<String> = chunk.iter().map(|i| i.to_string()).collect();
-                self.command(&format!("group {HELD_GROUP} id {}", list.join(" ")))?;
+            self.mark_held(column)?;
+        }
+        Ok(())
+    }
+
+    /// Put exactly the column's held grains in [`HELD_GROUP`] by their bit in LIGGGHTS's
+    /// per-atom `mask`: `fix freeze` reads the mask every step, so membership changes
+    /// need no `group` command and no new set-up (LIGGGHTS 3.8's `group` cannot empty a
+    /// group, and remaking one under its fix cost a set-up per release).
+    fn mark_held(&mut self, column: &Conveyor) -> Result<(), EngineError> {
+        let n = self.nlocal()?;
+        if n == 0 {
+            return Ok(());
+        }
+        let name = CString::new(HELD_GROUP).expect("static name");
+        let mut bit: c_int = 0;
+        // SAFETY: live instance, valid C string.
+        call(|e, l| unsafe { pfl_group_bit(self.lmp, name.as_ptr(), &mut bit, e, l) })?;
+        let mask = self.atom_ptr("mask")? as *mut c_int;
+        let tag = self.atom_ptr("id")? as *const c_int;
+        // SAFETY: per-atom arrays of nlocal ints.
+        unsafe {
+            for i in 0..n {
+                let m = mask.add(i);
+                if column.holds(*tag.add(i) as u64) {
+                    *m |= bit;
+                } else {
+                    *m &= !bit;
+                }
             }
-            self.command(&format!("fix pf_hold {HELD_GROUP} freeze"))?;
-            self.needs_setup = true;
-            self.refresh()?;
         }
         Ok(())
     }

@@ -384,7 +384,8 @@ pub fn map(scene: &Scene, cfg: &DemConfig) -> Result<Mapped, Refusal> {
         // ones in the slab in this group, whose force and torque `fix freeze` zeroes after
         // gravity, the walls and the fluid force (it is the last fix): they move at the feed
         // velocity they were given with no spin, as the built-in engine's 1/m = 0. The
-        // group starts empty (no grain has the walls' type 2).
+        // group starts empty (no grain has the walls' type 2); the engine moves grains in
+        // and out by the group's mask bit.
         c.push(format!("group {HELD_GROUP} type 2"));
         c.push(format!("fix pf_hold {HELD_GROUP} freeze"));
     }

@@ -11,6 +11,9 @@
 
 #include <mpi.h>
 #include <library.h>
+// For the group bit only (pfl_group_bit): the library interface has no call for it.
+#include <group.h>
+#include <lammps.h>
 
 namespace {
 void put(char *err, size_t len, const char *what) {
@@ -117,6 +120,18 @@ int pfl_extract_global(void *lmp, const char *name, void **out, char *err, size_
 // Per-atom fix data: style 1 (per-atom), type 1 (vector) or 2 (array).
 int pfl_extract_fix(void *lmp, const char *id, int type, void **out, char *err, size_t len) {
     PFL_GUARD(*out = lammps_extract_fix(lmp, id, 1, type, 0, 0))
+}
+
+// The one-bit mask of group `name` in the per-atom `mask` array, so that the caller can
+// move atoms in and out of it without the `group` command (which cannot empty a group and
+// makes LIGGGHTS set up again).
+int pfl_group_bit(void *lmp, const char *name, int *out, char *err, size_t len) {
+    PFL_GUARD({
+        LAMMPS_NS::Group *g = static_cast<LAMMPS_NS::LAMMPS *>(lmp)->group;
+        const int k = g->find(name);
+        if (k < 0) throw std::runtime_error(std::string("no group `") + name + "`");
+        *out = g->bitmask[k];
+    })
 }
 
 }  // extern "C"
