@@ -438,6 +438,14 @@ pub fn leading_number(s: &str) -> Option<Real> {
     t[..end].parse().ok()
 }
 
+/// The superficial velocity, m/s, a `gas.flow` value ("2.3 l/min") gives in a tube of
+/// inner diameter `diameter` (m): v_s = 4 V̇ / (π D²).
+fn superficial_velocity_of_flow(value: &str, diameter: Real) -> Option<Real> {
+    use crate::scene::units::{parse_quantity, VolumeFlow};
+    let flow = parse_quantity::<VolumeFlow>(value.trim().trim_matches('"')).ok()?;
+    Some(4.0 * flow / (std::f64::consts::PI * diameter * diameter))
+}
+
 fn draw_curves(
     dir: &Path,
     scene_path: &Path,
@@ -453,6 +461,27 @@ fn draw_curves(
         Some(s) => s.values.iter().map(Some).collect(),
         None => vec![None],
     };
+    let scene = Scene::load(scene_path, &[]).ok();
+    // A sweep over the gas's volume flow is drawn against the superficial velocity it
+    // gives in the scene's tube (v_s = 4 V̇ / (π D²)), the papers' axis, so that their
+    // points stand beside it.
+    let by_flow = first.path == "gas.flow";
+    let diameter = scene
+        .as_ref()
+        .and_then(|s| s.file.tube.as_ref())
+        .map(|t| t.diameter.si);
+    let x_of = |value: &str| -> Option<Real> {
+        if by_flow {
+            superficial_velocity_of_flow(value, diameter?)
+        } else {
+            leading_number(value)
+        }
+    };
+    let x_label = if by_flow && diameter.is_some() {
+        "superficial velocity from gas.flow, m/s".to_string()
+    } else {
+        first.path.clone()
+    };
     let mut dp_curves = Vec::new();
     let mut n_curves = Vec::new();
     for g in groups {
@@ -463,7 +492,7 @@ fn draw_curves(
                     continue;
                 }
             }
-            let Some(x) = leading_number(&v[0].1) else {
+            let Some(x) = x_of(&v[0].1) else {
                 continue;
             };
             if let Some(y) = r.as_ref().and_then(|r| Number::PressureDrop.of(r)) {
@@ -477,13 +506,17 @@ fn draw_curves(
             (Some(gv), Some(s)) => format!("{} = {gv}", s.path),
             _ => "plugflow".to_string(),
         };
+        // Drawn along x whatever order the values were given in (a point added to a
+        // finished sweep goes last, so that the earlier variants keep their folders).
+        dp.sort_by(|a, b| a.0.total_cmp(&b.0));
+        n.sort_by(|a, b| a.0.total_cmp(&b.0));
         dp_curves.push(Curve::line(label.clone(), dp));
         n_curves.push(Curve::line(label, n));
     }
-    let reproduces = Scene::load(scene_path, &[])
+    let reproduces = scene
         .map(|s| s.file.output.reproduces.clone())
         .unwrap_or_default();
-    if first.path.ends_with("superficial_velocity") {
+    if first.path.ends_with("superficial_velocity") || (by_flow && diameter.is_some()) {
         dp_curves.extend(paper_points(&reproduces));
     }
     figures::panels(
@@ -491,13 +524,13 @@ fn draw_curves(
         &[
             Panel {
                 title: "pressure drop".into(),
-                x_label: first.path.clone(),
+                x_label: x_label.clone(),
                 y_label: "hPa/m".into(),
                 curves: dp_curves,
             },
             Panel {
                 title: "grains in the tube".into(),
-                x_label: first.path.clone(),
+                x_label,
                 y_label: "mean count".into(),
                 curves: n_curves,
             },
@@ -510,6 +543,14 @@ fn draw_curves(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The seeds' 7 mm tube: 2.309 l/min is 1 m/s (4 × 3.848e-5 m³/s / (π × 4.9e-5 m²)).
+    #[test]
+    fn a_flow_sweep_is_drawn_against_superficial_velocity() {
+        let v = superficial_velocity_of_flow("\"2.309 l/min\"", 0.007).unwrap();
+        assert!((v - 0.99996).abs() < 1e-4, "{v}");
+        assert!(superficial_velocity_of_flow("fast", 0.007).is_none());
+    }
 
     #[test]
     fn combinations_cover_the_product_first_slowest() {
