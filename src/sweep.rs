@@ -16,13 +16,17 @@ use crate::output::figures::{self, Curve, Panel};
 use crate::scene::{Scene, SceneError};
 use crate::Real;
 
-/// One `--vary path=v1,v2,…`.
+/// One `--vary path=v1,v2,…`, or fields varied together,
+/// `--vary "path|other=v1|w1,v2|w2"` (the feed and the injection velocity that keeps its
+/// porosity: seed 002 fig. 5's mass flows at the paper's porosity 0.51).
 #[derive(Debug, Clone)]
 pub struct Vary {
-    /// Scene path, e.g. `gas.superficial_velocity`.
+    /// Scene path, e.g. `gas.superficial_velocity`: the curves' axis.
     pub path: String,
     /// Values as written (units allowed).
     pub values: Vec<String>,
+    /// Fields set together with `path`, each with one value per value of `path`.
+    pub paired: Vec<(String, Vec<String>)>,
 }
 
 /// What can stop a sweep before it starts.
@@ -78,22 +82,49 @@ pub fn parse_vary(arg: &str) -> Result<Vary, SweepError> {
     if path.trim().is_empty() || values.is_empty() {
         return Err(bad("expected PATH=V1,V2,… with at least one value"));
     }
+    let paths: Vec<String> = path.split('|').map(|p| p.trim().to_string()).collect();
+    if paths.iter().any(String::is_empty) {
+        return Err(bad("empty path among PATH|PATH…"));
+    }
+    // Column k holds the values of paths[k].
+    let mut columns: Vec<Vec<String>> = vec![Vec::new(); paths.len()];
+    for v in &values {
+        let parts: Vec<&str> = v.split('|').map(str::trim).collect();
+        if parts.len() != paths.len() || parts.iter().any(|p| p.is_empty()) {
+            return Err(bad(&format!(
+                "value `{v}` gives {} of the {} fields {} (one value each, separated by `|`)",
+                parts.iter().filter(|p| !p.is_empty()).count(),
+                paths.len(),
+                paths.join("|")
+            )));
+        }
+        for (c, p) in columns.iter_mut().zip(parts) {
+            c.push(p.to_string());
+        }
+    }
+    let mut columns = columns.into_iter();
+    let values = columns.next().unwrap_or_default();
     Ok(Vary {
-        path: path.trim().to_string(),
+        path: paths[0].clone(),
         values,
+        paired: paths[1..].iter().cloned().zip(columns).collect(),
     })
 }
 
-/// Every combination, first `--vary` slowest: `[(path, value)]` per variant.
+/// Every combination, first `--vary` slowest: `[(path, value)]` per variant (a `--vary`'s
+/// paired fields right after its own, with the value of the same index).
 pub fn combinations(varies: &[Vary]) -> Vec<Vec<(String, String)>> {
     let mut out: Vec<Vec<(String, String)>> = vec![Vec::new()];
     for v in varies {
         out = out
             .into_iter()
             .flat_map(|prefix| {
-                v.values.iter().map(move |x| {
+                v.values.iter().enumerate().map(move |(k, x)| {
                     let mut p = prefix.clone();
                     p.push((v.path.clone(), x.clone()));
+                    for (path, values) in &v.paired {
+                        p.push((path.clone(), values[k].clone()));
+                    }
                     p
                 })
             })
@@ -331,8 +362,10 @@ pub fn sweep(
     ];
     let mut csv = String::new();
     for v in varies {
-        csv.push_str(&v.path);
-        csv.push(',');
+        for path in std::iter::once(&v.path).chain(v.paired.iter().map(|(p, _)| p)) {
+            csv.push_str(path);
+            csv.push(',');
+        }
     }
     csv.push_str("variant,status,");
     csv.push_str(&COLUMNS.map(Number::key).join(","));
@@ -569,6 +602,29 @@ mod tests {
             vec![("a".into(), "2".into()), ("b".into(), "z".into())]
         );
         assert!(parse_vary("a=").is_err());
+    }
+
+    /// Fields varied together: one variant per value, the paired field's value of the same
+    /// index beside it; a value that does not give every field is refused.
+    #[test]
+    fn paired_fields_vary_together() {
+        let v = [
+            parse_vary("m|v=1 kg/h|0.1 m/s, 2 kg/h | 0.2 m/s").unwrap(),
+            parse_vary("s=1,2").unwrap(),
+        ];
+        assert_eq!(v[0].path, "m");
+        assert_eq!(v[0].values, vec!["1 kg/h", "2 kg/h"]);
+        let c = combinations(&v);
+        assert_eq!(c.len(), 4);
+        let pair = |a: &str, b: &str| (a.to_string(), b.to_string());
+        assert_eq!(
+            c[2],
+            vec![pair("m", "2 kg/h"), pair("v", "0.2 m/s"), pair("s", "1")]
+        );
+        for bad in ["m|v=1|2,3", "m|=1|2", "m|v=1|"] {
+            let e = parse_vary(bad).unwrap_err().to_string();
+            assert!(e.contains(bad), "{e}");
+        }
         let g = parse_vary("gas.grid=[75, 2, 2],[150,2,2]").unwrap();
         assert_eq!(g.values, vec!["[75, 2, 2]", "[150,2,2]"]);
         assert!(parse_vary("gas.grid=[75, 2").is_err());

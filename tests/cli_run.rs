@@ -260,7 +260,8 @@ fn coupled_run_reports_gas_numbers_and_checks() {
 }
 
 /// A sweep runs each combination as its own `plugflow run` with the variant's overrides:
-/// variant 001 must give bit for bit what a direct run with the same `--set` gives.
+/// variant 001 must give bit for bit what a direct run with the same `--set` gives. The
+/// second `--vary` pairs two fields (`a|b=…`): each variant sets both.
 #[test]
 fn sweep_runs_every_variant_as_a_direct_run_would() {
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));
@@ -273,7 +274,7 @@ fn sweep_runs_every_variant_as_a_direct_run_would() {
         "--vary",
         "particles.density=937,1200 kg/m^3",
         "--vary",
-        "contact.friction=0.3,0.5",
+        "contact.friction|contact.restitution=0.3|0.6,0.5|0.7",
         "--duration",
         "0.3",
         "--out",
@@ -283,9 +284,13 @@ fn sweep_runs_every_variant_as_a_direct_run_would() {
     let csv = std::fs::read_to_string(out.join("sweep.csv")).unwrap();
     let lines: Vec<&str> = csv.lines().collect();
     assert_eq!(lines.len(), 5, "{csv}");
-    assert!(lines[0].starts_with("particles.density,contact.friction,variant,status"));
     assert!(
-        lines[2].starts_with("\"937\",\"0.5\",001,\"completed\""),
+        lines[0]
+            .starts_with("particles.density,contact.friction,contact.restitution,variant,status"),
+        "{csv}"
+    );
+    assert!(
+        lines[2].starts_with("\"937\",\"0.5\",\"0.7\",001,\"completed\""),
         "{csv}"
     );
     assert!(out.join("characteristic.png").exists());
@@ -303,6 +308,8 @@ fn sweep_runs_every_variant_as_a_direct_run_would() {
         "particles.density=937",
         "--set",
         "contact.friction=0.5",
+        "--set",
+        "contact.restitution=0.7",
         "--quiet",
     ]);
     assert_eq!(code, 0, "{text}");
@@ -325,6 +332,34 @@ fn sweep_runs_every_variant_as_a_direct_run_would() {
         text.contains("contact.friction=-1") && text.contains("contact.friction"),
         "{text}"
     );
+    assert!(!out.join("bad").exists());
+    // A paired value that does not give every field, and pairs in a study: refused, named.
+    for (cmd, vary, why) in [
+        (
+            "sweep",
+            "contact.friction|contact.restitution=0.3|0.6,0.5",
+            "gives 1 of the 2 fields",
+        ),
+        (
+            "study",
+            "contact.friction|contact.restitution=0.3|0.6",
+            "a study varies one field",
+        ),
+    ] {
+        let (code, text) = plugflow(&[
+            cmd,
+            case.to_str().unwrap(),
+            "--vary",
+            vary,
+            "--out",
+            out.join("bad").to_str().unwrap(),
+        ]);
+        assert_eq!(code, 2, "{text}");
+        assert!(
+            text.contains(why) && text.contains("contact.friction"),
+            "{text}"
+        );
+    }
     assert!(!out.join("bad").exists());
     let _ = std::fs::remove_dir_all(&out);
 }

@@ -69,6 +69,16 @@ pub fn main(a: StudyArgs) -> ExitCode {
         Ok(v) => v,
         Err(code) => return code,
     };
+    // A study ranks each field's values by fineness (dt, grid): fields that vary together
+    // have no one order.
+    if let Some(v) = varies.iter().find(|v| !v.paired.is_empty()) {
+        eprintln!(
+            "error: --vary `{}|…`: a study varies one field per --vary (fields varied together \
+             are for `plugflow sweep`)",
+            v.path
+        );
+        return ExitCode::from(2);
+    }
     let mut exact_values = Vec::new();
     for e in &exact {
         match e

@@ -15,7 +15,9 @@ pub struct SweepArgs {
     /// Scene file (TOML).
     pub scene: PathBuf,
     /// A field and its values: --vary gas.superficial_velocity=0.5,0.75,1,2,4 (repeatable;
-    /// every combination runs).
+    /// every combination runs). Fields that vary together: --vary
+    /// "inlet.mass_flow|inlet.velocity=2.49 kg/h|0.04 m/s,9.95 kg/h|0.16 m/s" (the first is
+    /// the curves' axis).
     #[arg(long = "vary", value_name = "PATH=V1,V2,...", required = true)]
     pub vary: Vec<String>,
     /// Output folder.
