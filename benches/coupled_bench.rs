@@ -9,6 +9,8 @@
 //! on the machine.
 //!
 //! cargo bench --bench coupled_bench [-- --duration S] [--repeat R] [--engines a,b,c]
+//! [--set path=value ...] (overrides of the scene for every engine, e.g.
+//! `--set inlet.mode=slab` to time the slab inlet against the case's conveyor)
 //! (`--repeat R`: each engine R times, interleaved, medians reported; the ABI engines need
 //! their shims: `cargo build --release --workspace --features
 //! plugflow-dem-liggghts/liggghts,plugflow-dem-yade/yade`)
@@ -48,6 +50,11 @@ fn main() {
         .split(',')
         .map(str::to_owned)
         .collect();
+    let sets: Vec<String> = args
+        .windows(2)
+        .filter(|w| w[0] == "--set")
+        .map(|w| w[1].clone())
+        .collect();
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));
     let scene_path = root.join("cases/vertical_plug.toml");
     // Timings interleaved (engine after engine, round after round), so a shared machine's
@@ -59,7 +66,7 @@ fn main() {
             if failed[k].is_some() {
                 continue;
             }
-            match coupled_once(&scene_path, engine, duration) {
+            match coupled_once(&scene_path, engine, duration, &sets) {
                 Ok(t) => {
                     eprintln!(
                         "  {engine}: {:.3e} particle-steps/s, engine {:.0} % of {:.2} s",
@@ -107,7 +114,12 @@ fn main() {
 }
 
 /// The vertical case on `engine` for `duration` simulated seconds, one thread.
-fn coupled_once(scene_path: &Path, engine: &str, duration: f64) -> Result<Timing, String> {
+fn coupled_once(
+    scene_path: &Path,
+    engine: &str,
+    duration: f64,
+    sets: &[String],
+) -> Result<Timing, String> {
     let scene = Scene::load(
         scene_path,
         &[
@@ -119,7 +131,10 @@ fn coupled_once(scene_path: &Path, engine: &str, duration: f64) -> Result<Timing
             "output.settling_time=\"0 s\"".into(),
             // The law every engine has (YADE has no regularised Coulomb law).
             "contact.tangential=\"history\"".into(),
-        ],
+        ]
+        .into_iter()
+        .chain(sets.iter().cloned())
+        .collect::<Vec<_>>(),
     )
     .map_err(|e| e.to_string())?;
     let setup = plugflow::setup::build(&scene, false).map_err(|e| e.to_string())?;
