@@ -9,7 +9,7 @@
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};
 
-use crate::analysis::characteristic::characteristic_targets;
+use crate::analysis::characteristic::{characteristic_targets, fed_as_asked};
 use crate::summary::{Number, Summary, TargetRow};
 
 use crate::output::figures::{self, Curve, Panel};
@@ -528,6 +528,11 @@ fn draw_curves(
             let Some(x) = x_of(&v[0].1) else {
                 continue;
             };
+            // A variant whose inlet fell behind ran another feed: not a point of this
+            // curve (as for the rows; sweep.csv keeps it).
+            if r.as_ref().is_some_and(|r| !fed_as_asked(r)) {
+                continue;
+            }
             if let Some(y) = r.as_ref().and_then(|r| Number::PressureDrop.of(r)) {
                 dp.push((x, y));
             }

@@ -117,7 +117,7 @@ pub fn characteristic_targets(
 }
 
 /// The run fed what its inlet asked for, within 1 % (or has no inlet).
-fn fed_as_asked(s: &Summary) -> bool {
+pub fn fed_as_asked(s: &Summary) -> bool {
     match (s.grains_asked, s.feed_backlog_grains) {
         (Some(asked), Some(owed)) => owed as Real <= 0.01 * asked as Real,
         _ => true,
