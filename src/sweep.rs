@@ -400,15 +400,19 @@ pub fn sweep(
     // The rows only a sweep measures (V6, V7, V9–V11, H7), from a sweep of one setting.
     let targets = match varies {
         [only] => {
+            let axis = Axis {
+                scene_path,
+                first: only,
+            };
             let points: Vec<(Real, &Summary)> = variants
                 .iter()
                 .zip(&rows)
-                .filter_map(|(v, r)| Some((leading_number(&v[0].1)?, r.as_ref()?)))
+                .filter_map(|(v, r)| Some((axis.x(&v[0].1)?, r.as_ref()?)))
                 .filter(|(_, r)| r.completed())
                 .collect();
             let horizontal = Scene::load(scene_path, &[])
                 .is_ok_and(|s| s.file.output.reproduces.iter().any(|r| r.starts_with('H')));
-            characteristic_targets(&only.path, &points, horizontal)
+            characteristic_targets(axis.path(), &points, horizontal)
         }
         _ => Vec::new(),
     };
@@ -471,12 +475,47 @@ pub fn leading_number(s: &str) -> Option<Real> {
     t[..end].parse().ok()
 }
 
-/// The superficial velocity, m/s, a `gas.flow` value ("2.3 l/min") gives in a tube of
-/// inner diameter `diameter` (m): v_s = 4 V̇ / (π D²).
-fn superficial_velocity_of_flow(value: &str, diameter: Real) -> Option<Real> {
-    use crate::scene::units::{parse_quantity, VolumeFlow};
-    let flow = parse_quantity::<VolumeFlow>(value.trim().trim_matches('"')).ok()?;
-    Some(4.0 * flow / (std::f64::consts::PI * diameter * diameter))
+/// A sweep's x axis: the first varied field's values as numbers, for the figure and the
+/// rows alike. A sweep over `gas.flow` reads as the superficial velocity each value gives
+/// in the scene's tube ([`Scene::superficial_velocity`]): the papers' axis, with their
+/// points beside it and the rows of a `gas.superficial_velocity` sweep.
+struct Axis<'a> {
+    scene_path: &'a Path,
+    first: &'a Vary,
+}
+
+impl Axis<'_> {
+    fn by_flow(&self) -> bool {
+        self.first.path == "gas.flow"
+    }
+
+    /// The field the numbers are values of.
+    fn path(&self) -> &str {
+        if self.by_flow() {
+            "gas.superficial_velocity"
+        } else {
+            &self.first.path
+        }
+    }
+
+    fn label(&self) -> String {
+        if self.by_flow() {
+            "superficial velocity from gas.flow, m/s".to_string()
+        } else {
+            self.first.path.clone()
+        }
+    }
+
+    /// The number a value of the first field stands for (None: not a number).
+    fn x(&self, value: &str) -> Option<Real> {
+        if self.by_flow() {
+            Scene::load(self.scene_path, &[set_arg(&self.first.path, value)])
+                .ok()?
+                .superficial_velocity()
+        } else {
+            leading_number(value)
+        }
+    }
 }
 
 fn draw_curves(
@@ -494,27 +533,7 @@ fn draw_curves(
         Some(s) => s.values.iter().map(Some).collect(),
         None => vec![None],
     };
-    let scene = Scene::load(scene_path, &[]).ok();
-    // A sweep over the gas's volume flow is drawn against the superficial velocity it
-    // gives in the scene's tube (v_s = 4 V̇ / (π D²)), the papers' axis, so that their
-    // points stand beside it.
-    let by_flow = first.path == "gas.flow";
-    let diameter = scene
-        .as_ref()
-        .and_then(|s| s.file.tube.as_ref())
-        .map(|t| t.diameter.si);
-    let x_of = |value: &str| -> Option<Real> {
-        if by_flow {
-            superficial_velocity_of_flow(value, diameter?)
-        } else {
-            leading_number(value)
-        }
-    };
-    let x_label = if by_flow && diameter.is_some() {
-        "superficial velocity from gas.flow, m/s".to_string()
-    } else {
-        first.path.clone()
-    };
+    let axis = Axis { scene_path, first };
     let mut dp_curves = Vec::new();
     let mut n_curves = Vec::new();
     for g in groups {
@@ -525,7 +544,7 @@ fn draw_curves(
                     continue;
                 }
             }
-            let Some(x) = x_of(&v[0].1) else {
+            let Some(x) = axis.x(&v[0].1) else {
                 continue;
             };
             // A variant whose inlet fell behind ran another feed: not a point of this
@@ -551,10 +570,10 @@ fn draw_curves(
         dp_curves.push(Curve::line(label.clone(), dp));
         n_curves.push(Curve::line(label, n));
     }
-    let reproduces = scene
+    let reproduces = Scene::load(scene_path, &[])
         .map(|s| s.file.output.reproduces.clone())
         .unwrap_or_default();
-    if first.path.ends_with("superficial_velocity") || (by_flow && diameter.is_some()) {
+    if axis.path().ends_with("superficial_velocity") {
         dp_curves.extend(paper_points(&reproduces));
     }
     figures::panels(
@@ -562,13 +581,13 @@ fn draw_curves(
         &[
             Panel {
                 title: "pressure drop".into(),
-                x_label: x_label.clone(),
+                x_label: axis.label(),
                 y_label: "hPa/m".into(),
                 curves: dp_curves,
             },
             Panel {
                 title: "grains in the tube".into(),
-                x_label,
+                x_label: axis.label(),
                 y_label: "mean count".into(),
                 curves: n_curves,
             },
@@ -585,9 +604,16 @@ mod tests {
     /// The seeds' 7 mm tube: 2.309 l/min is 1 m/s (4 × 3.848e-5 m³/s / (π × 4.9e-5 m²)).
     #[test]
     fn a_flow_sweep_is_drawn_against_superficial_velocity() {
-        let v = superficial_velocity_of_flow("\"2.309 l/min\"", 0.007).unwrap();
+        let scene_path = Path::new(env!("CARGO_MANIFEST_DIR")).join("cases/horizontal_slug.toml");
+        let first = parse_vary("gas.flow=2.309 l/min").unwrap();
+        let axis = Axis {
+            scene_path: &scene_path,
+            first: &first,
+        };
+        assert_eq!(axis.path(), "gas.superficial_velocity");
+        let v = axis.x("\"2.309 l/min\"").unwrap();
         assert!((v - 0.99996).abs() < 1e-4, "{v}");
-        assert!(superficial_velocity_of_flow("fast", 0.007).is_none());
+        assert!(axis.x("fast").is_none());
     }
 
     #[test]

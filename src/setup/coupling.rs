@@ -51,12 +51,9 @@ fn gas_coupler(scene: &Scene, dem: &DemConfig) -> Result<Option<Coupler>, SceneE
         let tube = dem
             .tube
             .ok_or_else(|| SceneError::field("gas", "the gas needs a [tube]"))?;
-        let area = std::f64::consts::PI * tube.radius * tube.radius;
-        let v_s = match (g.superficial_velocity, g.flow) {
-            (Some(v), _) => v.si,
-            (None, Some(q)) => q.si / area,
-            _ => unreachable!("checked in scene::check_gas"),
-        };
+        let v_s = scene
+            .superficial_velocity()
+            .expect("checked in scene::check_gas: a tube and v_s or a flow");
         let [nz, nx, ny] = g.grid;
         let mut grid = TubeGrid::new_in_slab(
             tube.origin,

@@ -148,6 +148,19 @@ impl Scene {
         serde_json::to_string(&value).expect("TOML values serialise to JSON")
     }
 
+    /// The gas's superficial velocity v_s, m/s, however the scene gives it: as such, or as a
+    /// volume flow through the tube's section, v_s = 4 V̇ / (π D²). None without a gas or a
+    /// tube (or with neither way given: `check` refuses that).
+    pub fn superficial_velocity(&self) -> Option<crate::Real> {
+        let g = self.file.gas.as_ref()?;
+        if let Some(v) = g.superficial_velocity {
+            return Some(v.si);
+        }
+        // (As the DEM's tube radius and the coupler's section: the same roundings.)
+        let r = 0.5 * self.file.tube.as_ref()?.diameter.si;
+        Some(g.flow?.si / (std::f64::consts::PI * r * r))
+    }
+
     /// The folder a run writes to when no `--out` is given.
     pub fn default_output_dir(&self) -> std::path::PathBuf {
         Path::new("results").join(&self.file.name)
