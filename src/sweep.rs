@@ -397,7 +397,8 @@ pub fn sweep(
     std::fs::write(&csv_path, csv).map_err(|e| io(&csv_path, &e))?;
     draw_curves(&opts.out_dir, scene_path, varies, &variants, &rows)
         .map_err(|e| io(&opts.out_dir, &e))?;
-    // The rows only a sweep measures (V6, V7, V9–V11, H7), from a sweep of one setting.
+    // The rows only a sweep measures (V6, V7, V9–V11 on the vertical case, H7 on the
+    // horizontal one), from a sweep of one setting.
     let targets = match varies {
         [only] => {
             let axis = Axis {
