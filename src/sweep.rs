@@ -9,7 +9,7 @@
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};
 
-use crate::analysis::characteristic::{characteristic_targets, fed_as_asked};
+use crate::analysis::characteristic::{characteristic_targets, fed_as_asked, SweepRows};
 use crate::summary::{Number, Summary, TargetRow};
 
 use crate::output::figures::{self, Curve, Panel};
@@ -348,6 +348,23 @@ pub fn sweep(
     };
     let runs = run_variants(exe, scene_path, varies, opts)?;
     let variants: Vec<Vec<(String, String)>> = runs.iter().map(|r| r.settings.clone()).collect();
+    // The scene as the sweep's common settings give it (every variant was loaded and checked
+    // before the first ran), and each variant's place on the x axis, read once for the
+    // figure and the rows alike.
+    let scene = Scene::load(scene_path, &opts.set).map_err(|source| SweepError::Scene {
+        variant: "(the sweep's common settings)".to_string(),
+        source,
+    })?;
+    let reproduces = &scene.file.output.reproduces;
+    let axis = varies.first().map(|first| Axis {
+        scene_path,
+        set: &opts.set,
+        first,
+    });
+    let xs: Vec<Option<Real>> = variants
+        .iter()
+        .map(|v| axis.as_ref().and_then(|a| a.x(&v[0].1)))
+        .collect();
     // Gather.
     const COLUMNS: [Number; 9] = [
         Number::PressureDrop,
@@ -395,25 +412,29 @@ pub fn sweep(
     }
     let csv_path = opts.out_dir.join("sweep.csv");
     std::fs::write(&csv_path, csv).map_err(|e| io(&csv_path, &e))?;
-    draw_curves(&opts.out_dir, scene_path, varies, &variants, &rows)
+    if let Some(axis) = &axis {
+        draw_curves(
+            &opts.out_dir,
+            axis,
+            reproduces,
+            varies,
+            &variants,
+            &xs,
+            &rows,
+        )
         .map_err(|e| io(&opts.out_dir, &e))?;
+    }
     // The rows only a sweep measures (V6, V7, V9–V11 on the vertical case, H7 on the
     // horizontal one), from a sweep of one setting.
-    let targets = match varies {
-        [only] => {
-            let axis = Axis {
-                scene_path,
-                first: only,
-            };
-            let points: Vec<(Real, &Summary)> = variants
+    let targets = match (varies, &axis) {
+        ([_], Some(axis)) => {
+            let points: Vec<(Real, &Summary)> = xs
                 .iter()
                 .zip(&rows)
-                .filter_map(|(v, r)| Some((axis.x(&v[0].1)?, r.as_ref()?)))
+                .filter_map(|(x, r)| Some(((*x)?, r.as_ref()?)))
                 .filter(|(_, r)| r.completed())
                 .collect();
-            let horizontal = Scene::load(scene_path, &[])
-                .is_ok_and(|s| s.file.output.reproduces.iter().any(|r| r.starts_with('H')));
-            characteristic_targets(axis.path(), &points, horizontal)
+            characteristic_targets(axis.path(), &points, SweepRows::of(reproduces))
         }
         _ => Vec::new(),
     };
@@ -482,6 +503,8 @@ pub fn leading_number(s: &str) -> Option<Real> {
 /// points beside it and the rows of a `gas.superficial_velocity` sweep.
 struct Axis<'a> {
     scene_path: &'a Path,
+    /// The sweep's common `--set`s, under each variant's value.
+    set: &'a [String],
     first: &'a Vary,
 }
 
@@ -510,7 +533,9 @@ impl Axis<'_> {
     /// The number a value of the first field stands for (None: not a number).
     fn x(&self, value: &str) -> Option<Real> {
         if self.by_flow() {
-            Scene::load(self.scene_path, &[set_arg(&self.first.path, value)])
+            let mut set = self.set.to_vec();
+            set.push(set_arg(&self.first.path, value));
+            Scene::load(self.scene_path, &set)
                 .ok()?
                 .superficial_velocity()
         } else {
@@ -521,31 +546,29 @@ impl Axis<'_> {
 
 fn draw_curves(
     dir: &Path,
-    scene_path: &Path,
+    axis: &Axis,
+    reproduces: &[String],
     varies: &[Vary],
     variants: &[Vec<(String, String)>],
+    xs: &[Option<Real>],
     rows: &[Option<Summary>],
 ) -> Result<(), crate::output::OutputError> {
-    let Some(first) = varies.first() else {
-        return Ok(());
-    };
     let second = varies.get(1);
     let groups: Vec<Option<&String>> = match second {
         Some(s) => s.values.iter().map(Some).collect(),
         None => vec![None],
     };
-    let axis = Axis { scene_path, first };
     let mut dp_curves = Vec::new();
     let mut n_curves = Vec::new();
     for g in groups {
         let (mut dp, mut n) = (Vec::new(), Vec::new());
-        for (v, r) in variants.iter().zip(rows) {
+        for ((v, r), x) in variants.iter().zip(rows).zip(xs) {
             if let (Some(gv), Some(s)) = (g, second) {
                 if !v.iter().any(|(p, x)| p == &s.path && x == gv) {
                     continue;
                 }
             }
-            let Some(x) = axis.x(&v[0].1) else {
+            let Some(x) = *x else {
                 continue;
             };
             // A variant whose inlet fell behind ran another feed: not a point of this
@@ -571,11 +594,8 @@ fn draw_curves(
         dp_curves.push(Curve::line(label.clone(), dp));
         n_curves.push(Curve::line(label, n));
     }
-    let reproduces = Scene::load(scene_path, &[])
-        .map(|s| s.file.output.reproduces.clone())
-        .unwrap_or_default();
     if axis.path().ends_with("superficial_velocity") {
-        dp_curves.extend(paper_points(&reproduces));
+        dp_curves.extend(paper_points(reproduces));
     }
     figures::panels(
         &dir.join("characteristic.png"),
@@ -609,6 +629,7 @@ mod tests {
         let first = parse_vary("gas.flow=2.309 l/min").unwrap();
         let axis = Axis {
             scene_path: &scene_path,
+            set: &[],
             first: &first,
         };
         assert_eq!(axis.path(), "gas.superficial_velocity");

@@ -10,18 +10,44 @@ use crate::Real;
 /// Seed 000's reference point, V1: v_s = 1 m/s.
 const REFERENCE_VELOCITY: Real = 1.0;
 
+/// Whose sweep rows a scene's sweep measures: those of the seed whose reference scene it is,
+/// by the rows its `output.reproduces` names (V1: seed 000's vertical tube; H1: seed 002's
+/// horizontal pipe). The V-rows are not measured on the horizontal pipe (seed 002 fig. 7:
+/// there Δp peaks at μ = 0.1 rather than rising with μ, so V10's "rises with μ" is no
+/// horizontal row), nor H7 on the vertical tube, nor either on a scene that is neither
+/// seed's (its curve is drawn, but the papers' rows describe other scenes).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum SweepRows {
+    /// Seed 000's vertical tube: V6, V7, V9, V10, V11.
+    Vertical,
+    /// Seed 002's horizontal pipe: H7.
+    Horizontal,
+    /// Neither seed's scene: no rows.
+    None,
+}
+
+impl SweepRows {
+    /// From the scene's `output.reproduces`.
+    pub fn of(reproduces: &[String]) -> Self {
+        let has = |id: &str| reproduces.iter().any(|r| r == id);
+        if has("V1") {
+            SweepRows::Vertical
+        } else if has("H1") {
+            SweepRows::Horizontal
+        } else {
+            SweepRows::None
+        }
+    }
+}
+
 /// The rows a sweep over `path` measures, from `(value of path, summary)` of its variants
-/// (variants without a pressure drop left out). Empty when the path is none of the above or
-/// the points needed are missing (e.g. no v_s = 1 m/s variant for V6/V7).
-///
-/// `horizontal`: the scene is the horizontal case (it reproduces H-rows): a sweep of the
-/// feed then measures H7, and the V-rows, which are seed 000's vertical tube, are not
-/// measured (seed 002 fig. 7: horizontally Δp peaks at μ = 0.1 rather than rising with μ,
-/// so V10's "rises with μ" is no horizontal row).
+/// (variants without a pressure drop left out), for a scene whose rows are `family`. Empty
+/// when the path is none of the above or the points needed are missing (e.g. no v_s = 1 m/s
+/// variant for V6/V7).
 pub fn characteristic_targets(
     path: &str,
     points: &[(Real, &Summary)],
-    horizontal: bool,
+    family: SweepRows,
 ) -> Vec<TargetRow> {
     let mut pts: Vec<(Real, Real, Real)> = points
         .iter()
@@ -37,8 +63,10 @@ pub fn characteristic_targets(
         .collect();
     pts.sort_by(|a, b| a.0.total_cmp(&b.0));
     let dp_at = |x: Real| pts.iter().find(|p| (p.0 - x).abs() < 1e-9).map(|p| p.1);
+    let vertical = family == SweepRows::Vertical;
+    let horizontal = family == SweepRows::Horizontal;
     let mut rows = Vec::new();
-    if !horizontal && path.ends_with("superficial_velocity") {
+    if vertical && path.ends_with("superficial_velocity") {
         if let Some(dp1) = dp_at(REFERENCE_VELOCITY) {
             // V6, V7: the paper's 62 and 13 hPa/m against its 39 at 1 m/s; the rows ask only
             // for the direction (higher at 0.75 m/s, lower at 4 m/s).
@@ -90,7 +118,7 @@ pub fn characteristic_targets(
             (0.9, 1.0),
         ));
     }
-    if !horizontal && path.ends_with("friction") && pts.len() >= 2 {
+    if vertical && path.ends_with("friction") && pts.len() >= 2 {
         // V10: "pressure drop rises with μ": the smallest ratio of neighbours along μ.
         let min_ratio = pts
             .windows(2)
@@ -104,7 +132,7 @@ pub fn characteristic_targets(
             (1.0, Real::INFINITY),
         ));
     }
-    if !horizontal && path.ends_with("restitution") && pts.len() >= 2 {
+    if vertical && path.ends_with("restitution") && pts.len() >= 2 {
         // V11: restitution 0.5 → 0.99 leaves Δp within 15 %: the highest e against the lowest.
         let (lo, hi) = (pts[0], pts[pts.len() - 1]);
         rows.push(row(
@@ -172,7 +200,7 @@ mod tests {
     fn the_papers_points_pass_their_rows() {
         let s = [at(62.0, 4900.0), at(39.0, 3600.0), at(13.0, 850.0)];
         let pts = [(0.75, &s[0]), (1.0, &s[1]), (4.0, &s[2])];
-        let rows = characteristic_targets("gas.superficial_velocity", &pts, false);
+        let rows = characteristic_targets("gas.superficial_velocity", &pts, SweepRows::Vertical);
         let ids: Vec<&str> = rows.iter().map(|r| r.id.as_str()).collect();
         assert_eq!(ids, ["V6", "V7", "V9"]);
         assert!(rows.iter().all(|r| r.inside), "{rows:?}");
@@ -188,12 +216,12 @@ mod tests {
     fn wrong_directions_fail_and_missing_points_measure_nothing() {
         let s = [at(30.0, 3000.0), at(40.0, 3000.0), at(35.0, 3000.0)];
         let pts = [(0.2, &s[0]), (0.5, &s[1]), (0.8, &s[2])];
-        let v10 = characteristic_targets("contact.friction", &pts, false);
+        let v10 = characteristic_targets("contact.friction", &pts, SweepRows::Vertical);
         assert_eq!(v10.len(), 1);
         assert!((v10[0].measured.unwrap() - 35.0 / 40.0).abs() < 1e-12);
         assert!(!v10[0].inside);
         let e = [(0.5, &s[1]), (0.99, &s[0])];
-        let v11 = characteristic_targets("contact.restitution", &e, false);
+        let v11 = characteristic_targets("contact.restitution", &e, SweepRows::Vertical);
         assert!((v11[0].measured.unwrap() - 0.75).abs() < 1e-12);
         assert!(!v11[0].inside);
         // A variant whose inlet was blocked (fed 9 % of what it asked) is no point of the
@@ -202,13 +230,15 @@ mod tests {
         blocked.grains_asked = Some(5137);
         blocked.feed_backlog_grains = Some(4680);
         let e2 = [(0.5, &s[1]), (0.99, &blocked)];
-        assert!(characteristic_targets("contact.restitution", &e2, false).is_empty());
+        assert!(characteristic_targets("contact.restitution", &e2, SweepRows::Vertical).is_empty());
         let v = [(0.5, &s[0]), (2.0, &s[1])];
-        assert!(characteristic_targets("gas.superficial_velocity", &v, false).is_empty());
+        assert!(
+            characteristic_targets("gas.superficial_velocity", &v, SweepRows::Vertical).is_empty()
+        );
         // The feed: H7 on the horizontal case only.
         let feed = [(0.75, &s[0]), (1.25, &s[1]), (2.49, &s[2])];
-        assert!(characteristic_targets("inlet.mass_flow", &feed, false).is_empty());
-        let h7 = characteristic_targets("inlet.mass_flow", &feed, true);
+        assert!(characteristic_targets("inlet.mass_flow", &feed, SweepRows::Vertical).is_empty());
+        let h7 = characteristic_targets("inlet.mass_flow", &feed, SweepRows::Horizontal);
         assert_eq!(h7[0].id, "H7");
         // Δp 30, 40, 35 against 0.75, 1.25, 2.49: R² by hand 0.0779.
         assert!((h7[0].measured.unwrap() - 0.0779).abs() < 1e-4, "{h7:?}");
@@ -222,10 +252,41 @@ mod tests {
             "gas.superficial_velocity",
         ] {
             assert!(
-                !characteristic_targets(path, &v, false).is_empty(),
+                !characteristic_targets(path, &v, SweepRows::Vertical).is_empty(),
                 "{path}"
             );
-            assert!(characteristic_targets(path, &v, true).is_empty(), "{path}");
+            assert!(
+                characteristic_targets(path, &v, SweepRows::Horizontal).is_empty(),
+                "{path}"
+            );
+            assert!(
+                characteristic_targets(path, &v, SweepRows::None).is_empty(),
+                "{path}"
+            );
+        }
+        // H7 is the horizontal pipe's: not measured on a scene of neither seed.
+        assert!(characteristic_targets("inlet.mass_flow", &feed, SweepRows::None).is_empty());
+    }
+
+    /// The shipped cases name their family through the rows they reproduce: the vertical
+    /// tube (d'Arcy and SIMPLE gas) seed 000's, the horizontal pipe seed 002's, the
+    /// experiment series (seed 000's Table 1, other feeds than its simulations) neither.
+    #[test]
+    fn the_cases_sweep_rows_follow_what_they_reproduce() {
+        let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("cases");
+        for (case, family) in [
+            ("vertical_plug.toml", SweepRows::Vertical),
+            ("vertical_plug_simple.toml", SweepRows::Vertical),
+            ("horizontal_slug.toml", SweepRows::Horizontal),
+            ("experiment_series_a.toml", SweepRows::None),
+            ("vertical_dry_feed.toml", SweepRows::None),
+        ] {
+            let scene = crate::scene::Scene::load(&root.join(case), &[]).unwrap();
+            assert_eq!(
+                SweepRows::of(&scene.file.output.reproduces),
+                family,
+                "{case}"
+            );
         }
     }
 }
