@@ -13,7 +13,7 @@
 //! listed once (j > i, from the one image within reach: a periodic direction holds at
 //! least three cells).
 
-use super::state::ParticleState;
+use super::state::{ParticleState, ReorderScratch};
 use super::team::{share, Shared, Team};
 use super::vec3::{add, norm2, sub};
 use super::walls::Wall;
@@ -335,8 +335,8 @@ pub struct NeighborList {
     cell: Vec<u32>,
     fill: Vec<u32>,
     order: Vec<usize>,
-    /// Scratch: the grains in their new order are gathered here, then swapped in.
-    spare: ParticleState,
+    /// Scratch: one spare column per element type, for reordering the grains in place.
+    spare: ReorderScratch,
     /// Scratch: each member's rows.
     rows: Vec<RowScratch>,
     /// Live histories keyed by (smaller id, larger id), as seen from the smaller id; filled
@@ -475,8 +475,7 @@ impl NeighborList {
             self.order[*slot as usize] = i;
             *slot += 1;
         }
-        self.spare.gather(state, &self.order, walls.len(), team);
-        std::mem::swap(state, &mut self.spare);
+        state.reorder(&self.order, walls.len(), &mut self.spare, team);
         // 3. Pairs within reach from the 27 surrounding cells, the contacts among them, and
         // the grains near each wall (closer than one skin: the wall's contact test with the
         // radius grown by the skin), each member over its own rows.
