@@ -282,20 +282,21 @@ impl Conveyor {
             self.started = true;
         }
         let stopped = inlet.until.is_some_and(|u| time > u);
+        // One pass over the grains (every FEED_STRIDE steps, all of them): the held ones
+        // past the slab, and those near the inlet end the entering grains must not overlap.
+        let reach = 4.0 * cfg.radius_max;
+        let mut near: Vec<(Vec3, Real)> = Vec::new();
         for (i, &x) in positions.iter().enumerate() {
-            if (stopped || axial(&tube, x) > slab) && self.release(ids[i]) {
+            let a = axial(&tube, x);
+            if (stopped || a > slab) && self.release(ids[i]) {
                 out.release.push(i);
+            }
+            if !stopped && a < reach {
+                near.push((x, radii[i]));
             }
         }
         if !stopped {
             self.advance(cfg, inlet.velocity * elapsed, rng);
-            let reach = 4.0 * cfg.radius_max;
-            let near: Vec<(Vec3, Real)> = positions
-                .iter()
-                .zip(radii)
-                .filter(|(x, _)| axial(&tube, **x) < reach)
-                .map(|(x, r)| (*x, *r))
-                .collect();
             out.enter = self.enter(cfg, &near);
         }
         out
