@@ -237,7 +237,16 @@ impl Conveyor {
             slab_half: tube.slab_half,
         };
         let tolerance = PACK_TOLERANCE * 2.0 * cfg.radius_min;
-        let (grains, overlapping) = pack(&radii, lo, hi, &shape, &above, tolerance, rng);
+        let (grains, overlapping) = pack(
+            &radii,
+            lo,
+            hi,
+            &shape,
+            &above,
+            tolerance,
+            CANDIDATE_SKIN,
+            rng,
+        );
         let (kept, dropped): (Vec<_>, Vec<_>) =
             grains.into_iter().zip(overlapping).partition(|(_, o)| !o);
         Block {
@@ -388,7 +397,9 @@ impl Section {
 /// the grains and, per grain, whether it still overlaps. Only a ≤ hi holds them along the
 /// axis: a grain pushed below lo stays there (the next block packs against it), so no
 /// layer of centres gathers on a plane at each block's end and the column's density is
-/// its count per length.
+/// its count per length. Each sweep tests the [`Candidates`] within `candidate_skin`
+/// smallest diameters ([`CANDIDATE_SKIN`]; infinite: every pair).
+#[allow(clippy::too_many_arguments)]
 fn pack(
     radii: &[Real],
     lo: Real,
@@ -396,6 +407,7 @@ fn pack(
     section: &Section,
     fixed: &[ColumnGrain],
     tolerance: Real,
+    candidate_skin: Real,
     rng: &mut Rng,
 ) -> (Vec<ColumnGrain>, Vec<bool>) {
     let mut g: Vec<ColumnGrain> = radii
@@ -434,7 +446,7 @@ fn pack(
     // once): pushing pair by pair in place cycles where grains crowd against the wall.
     // Each sweep tests only the listed candidates, in the order a sweep over all pairs
     // takes them, so its sums (and the packing) are the same bit for bit.
-    let skin = CANDIDATE_SKIN * 2.0 * radii.iter().copied().fold(Real::INFINITY, Real::min);
+    let skin = candidate_skin * 2.0 * radii.iter().copied().fold(Real::INFINITY, Real::min);
     let mut near = Candidates::default();
     let mut shift = vec![[0.0; 3]; n];
     for _ in 0..MAX_SWEEPS {
@@ -712,8 +724,9 @@ mod tests {
         assert!(held > 0 && above > 0, "{held} held, {above} above");
     }
     /// The sweeps over the candidate list pack a block bit for bit as sweeps over every
-    /// pair did (the function before the list, kept here as the reference): a block that
-    /// packs and one that jams (20 000 sweeps), with the column's fixed grains above.
+    /// pair (an infinite skin lists every pair and never goes stale: the sweeps as they
+    /// were before the list): blocks that pack and blocks that jam (20 000 sweeps), with
+    /// the column's fixed grains above.
     #[test]
     fn candidate_sweeps_pack_as_all_pairs_do() {
         let cfg = vertical(&[]);
@@ -741,24 +754,11 @@ mod tests {
                 .filter(|g| g[0] - g[3] < hi + 2.0 * cfg.radius_max)
                 .collect();
             let seed = 100 + block;
-            let listed = pack(
-                &radii,
-                lo,
-                hi,
-                &shape,
-                &above,
-                tolerance,
-                &mut Rng::new(seed),
-            );
-            let all = pack_over_all_pairs(
-                &radii,
-                lo,
-                hi,
-                &shape,
-                &above,
-                tolerance,
-                &mut Rng::new(seed),
-            );
+            let pack_with = |skin: Real| {
+                let rng = &mut Rng::new(seed);
+                pack(&radii, lo, hi, &shape, &above, tolerance, skin, rng)
+            };
+            let (listed, all) = (pack_with(CANDIDATE_SKIN), pack_with(Real::INFINITY));
             assert_eq!(listed, all, "block {block}");
             jammed += listed.1.iter().any(|&o| o) as usize;
             column.pending.extend(listed.0);
@@ -766,86 +766,5 @@ mod tests {
         }
         // Both paths of the sweeps ran: blocks that packed and blocks that jammed.
         assert!(jammed > 0 && jammed < 6, "{jammed} of 6 blocks jammed");
-    }
-
-    fn pack_over_all_pairs(
-        radii: &[Real],
-        lo: Real,
-        hi: Real,
-        section: &Section,
-        fixed: &[ColumnGrain],
-        tolerance: Real,
-        rng: &mut Rng,
-    ) -> (Vec<ColumnGrain>, Vec<bool>) {
-        let mut g: Vec<ColumnGrain> = radii
-            .iter()
-            .map(|&r| {
-                let (u, v) = section.sample(r, rng);
-                [rng.range(lo, hi), u, v, r]
-            })
-            .collect();
-        let n = g.len();
-        // Pushing a little past contact settles a packing in fewer sweeps.
-        let over = 1.0 + 1e-3;
-        let separate = |p: &ColumnGrain, q: &ColumnGrain| -> Option<(Vec3, Real)> {
-            let d = [p[0] - q[0], p[1] - q[1], p[2] - q[2]];
-            let reach = p[3] + q[3];
-            let dist2 = norm2(d);
-            if dist2 >= (reach - tolerance).powi(2) {
-                return None;
-            }
-            let dist = dist2.sqrt();
-            let normal = if dist > 0.0 {
-                scale(d, 1.0 / dist)
-            } else {
-                [1.0, 0.0, 0.0]
-            };
-            Some((normal, reach - dist))
-        };
-        let confine = |p: &mut ColumnGrain| {
-            p[0] = p[0].min(hi);
-            let (mut u, mut v) = (p[1], p[2]);
-            section.project(p[3], &mut u, &mut v);
-            p[1] = u;
-            p[2] = v;
-        };
-        // Jacobi sweeps (every push of a sweep from the positions at its start, then all at
-        // once): pushing pair by pair in place cycles where grains crowd against the wall.
-        let mut shift = vec![[0.0; 3]; n];
-        for _ in 0..MAX_SWEEPS {
-            let mut clean = true;
-            shift.iter_mut().for_each(|d| *d = [0.0; 3]);
-            for i in 0..n {
-                for f in fixed {
-                    if let Some((normal, depth)) = separate(&g[i], f) {
-                        clean = false;
-                        shift[i] = add(shift[i], scale(normal, depth * over));
-                    }
-                }
-                for j in i + 1..n {
-                    if let Some((normal, depth)) = separate(&g[i], &g[j]) {
-                        clean = false;
-                        let half = scale(normal, 0.5 * depth * over);
-                        shift[i] = add(shift[i], half);
-                        shift[j] = sub(shift[j], half);
-                    }
-                }
-            }
-            if clean {
-                return (g, vec![false; n]);
-            }
-            for (p, d) in g.iter_mut().zip(&shift) {
-                *p = [p[0] + d[0], p[1] + d[1], p[2] + d[2], p[3]];
-                confine(p);
-            }
-        }
-        // Flag grains greedily until the rest are clear of each other and the fixed ones.
-        let mut out = vec![false; n];
-        for i in 0..n {
-            let hits = fixed.iter().any(|f| separate(&g[i], f).is_some())
-                || (0..i).any(|j| !out[j] && separate(&g[i], &g[j]).is_some());
-            out[i] = hits;
-        }
-        (g, out)
     }
 }
