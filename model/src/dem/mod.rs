@@ -418,7 +418,7 @@ impl NativeDem {
     /// Remove grains past open ends, outside the box, or escaped from the tube. `near_build`:
     /// every grain is within one skin of where it was at the last neighbour build, and no
     /// grain was added or removed since: then only [`NativeDem::may_leave`]'s can have left.
-    fn remove_leaving(&mut self, near_build: bool) -> Real {
+    fn remove_leaving(&mut self, near_build: bool, team: &Team) -> Real {
         let n = self.state.len();
         let stays = |i: usize| {
             matches!(
@@ -452,7 +452,7 @@ impl NativeDem {
         // every grain and searches every cell: grains leave ~1000 times a second at the
         // vertical case's outlet, as often as the drifts call for builds).
         if near_build && self.nlist.retain(&keep, n) {
-            self.state.permute(&keep, nw);
+            self.nlist.reorder_grains(&mut self.state, &keep, nw, team);
             let new_index = self.nlist.retained_index();
             self.may_leave.retain_mut(|i| {
                 *i = new_index[*i as usize];
@@ -466,7 +466,7 @@ impl NativeDem {
         if self.cfg.laws.uses_history() {
             self.nlist.stash_history(&self.state);
         }
-        self.state.permute(&keep, nw);
+        self.nlist.reorder_grains(&mut self.state, &keep, nw, team);
         self.rebuild_pending = true;
         out_mass
     }
@@ -655,7 +655,7 @@ impl NativeDem {
             if self.step.is_multiple_of(FEED_STRIDE)
                 && (self.cfg.inlet.is_some() || self.cfg.removes_grains)
             {
-                self.remove_leaving(!(moved_far || self.rebuild_pending));
+                self.remove_leaving(!(moved_far || self.rebuild_pending), team);
                 self.feed(FEED_STRIDE as Real * dt);
             }
             let t2 = Instant::now();
@@ -994,7 +994,8 @@ impl DemBackend for NativeDem {
     }
 
     fn remove_past_outlet(&mut self) -> Result<Real, BackendError> {
-        Ok(self.remove_leaving(false))
+        let team = self.threads.team();
+        Ok(self.remove_leaving(false, &team))
     }
 
     fn wall_forces(&self) -> Vec<WallForce> {

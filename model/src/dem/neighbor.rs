@@ -371,6 +371,18 @@ pub struct NeighborKeep {
 }
 
 impl NeighborList {
+    /// Keep only the grains `keep` lists, in its order (grains leaving between builds),
+    /// through this list's spare columns: no allocation, as a build's reorder.
+    pub fn reorder_grains(
+        &mut self,
+        state: &mut ParticleState,
+        keep: &[usize],
+        walls: usize,
+        team: &Team,
+    ) {
+        state.reorder(keep, walls, &mut self.spare, team);
+    }
+
     /// The part a checkpoint keeps.
     pub fn keep(&self) -> NeighborKeep {
         NeighborKeep {
