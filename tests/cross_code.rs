@@ -424,6 +424,9 @@ fn d_vertical_plug_first_second() {
         &[
             "dem.threads=1".to_string(),
             "contact.tangential=history".to_string(),
+            // The scatter below was measured at the porosity clamp 0.99, the case's value
+            // then (it is 0.95 since session 34); the engines share the gas either way.
+            "gas.porosity_max=0.99".to_string(),
         ],
     )
     .unwrap();
@@ -508,8 +511,10 @@ fn e_horizontal_slug_first_second() {
         &[
             "dem.threads=1".to_string(),
             "contact.tangential=history".to_string(),
-            // The bands below were measured with the slab inlet, which the case had then.
+            // The bands below were measured with the slab inlet and the porosity clamp
+            // 0.99, which the case had then.
             "inlet.mode=slab".to_string(),
+            "gas.porosity_max=0.99".to_string(),
         ],
     )
     .unwrap();

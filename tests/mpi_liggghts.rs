@@ -265,6 +265,10 @@ fn c_the_vertical_case_s_first_second_on_1_and_2_ranks() {
                 "inlet.mode=\"slab\"",
                 "--set",
                 "output.settling_time=\"0.8 s\"",
+                // The scatter behind the bands was measured at the clamp 0.99 (the case's
+                // value until session 34).
+                "--set",
+                "gas.porosity_max=0.99",
                 "--quiet",
             ],
         );
