@@ -4,9 +4,10 @@
 //! `ratio native/liggghts: X` (one core each). Not a test: numbers depend on the machine.
 //!
 //! cargo bench --bench dem_bench [-- --steps N] [--repeat R] [--native-only | --bridge-only]
-//! (`--repeat R`: time each engine R times, report the medians; `--native-only`: the
-//! built-in DEM's one-thread timing alone, for profiling it; `--bridge-only`: only the
-//! engines through the ABI, one advance against exchanges of `--chunk` steps, default 50)
+//! (`--repeat R`: R interleaved rounds, each timing one thread, two threads and LIGGGHTS once;
+//! the medians over the rounds; `--native-only`: the built-in DEM's one-thread timing alone,
+//! for profiling it; `--bridge-only`: only the engines through the ABI, one advance against
+//! exchanges of `--chunk` steps, default 50)
 
 use std::path::Path;
 use std::process::Command;
@@ -87,40 +88,55 @@ fn main() {
         );
         bed.len() as f64 * steps as f64 / secs
     };
-    let native = |threads: usize| -> f64 {
-        let rates = (0..repeat).map(|_| native_once(threads)).collect();
-        median(&format!("{threads} threads"), rates)
-    };
+    // Interleaved rounds: each times every side once (one thread, two threads, LIGGGHTS), so
+    // the host's drift over the run falls on all sides alike; medians over the rounds.
     let bridge_only = args.iter().any(|a| a == "--bridge-only");
-    let n1 = if bridge_only { f64::NAN } else { native(1) };
+    let native_only = args.iter().any(|a| a == "--native-only");
+    let (mut one, mut two, mut lig) = (Vec::new(), Vec::new(), Vec::new());
+    let mut liggghts_error: Option<String> = None;
+    if !bridge_only {
+        for _ in 0..repeat {
+            one.push(native_once(1));
+            if native_only {
+                continue;
+            }
+            two.push(native_once(2));
+            // 3. LIGGGHTS from Debian's package on the same bed.
+            if liggghts_error.is_none() {
+                match liggghts(&work, &bed, steps) {
+                    Ok(rate) => lig.push(rate),
+                    Err(e) => liggghts_error = Some(e),
+                }
+            }
+        }
+    }
+    let n1 = if bridge_only {
+        f64::NAN
+    } else {
+        median("1 threads", one)
+    };
     if !bridge_only {
         println!("native 1 thread : {:.3e} particle-steps/s", n1);
     }
-    if args.iter().any(|a| a == "--native-only") {
+    if native_only {
         return;
     }
     let ratio = if bridge_only {
         None
     } else {
-        let n2 = native(2);
+        let n2 = median("2 threads", two);
         println!(
             "native 2 threads: {:.3e} particle-steps/s ({:.2}x its one-thread speed)",
             n2,
             n2 / n1
         );
-
-        // 3. LIGGGHTS from Debian's package on the same bed.
-        // As often as the built-in DEM, median likewise, so both sides of the ratio see the
-        // machine's noise alike.
-        let liggghts_rates: Result<Vec<f64>, String> =
-            (0..repeat).map(|_| liggghts(&work, &bed, steps)).collect();
-        let liggghts_median = liggghts_rates.map(|rates| median("liggghts", rates));
-        match liggghts_median {
-            Ok(l) => {
+        match liggghts_error {
+            None => {
+                let l = median("liggghts", lig);
                 println!("liggghts 1 proc : {:.3e} particle-steps/s", l);
                 Some(n1 / l)
             }
-            Err(e) => {
+            Some(e) => {
                 println!("liggghts: not measured ({e})");
                 None
             }
