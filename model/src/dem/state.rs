@@ -129,9 +129,10 @@ impl ParticleState {
     }
 
     /// Reorder every array so that new index `k` holds old grain `order[k]` (each grain at
-    /// most once: a shorter order drops the grains it leaves out), column by column through `scratch`: the extra memory is one column of each
-    /// type (136 B per grain with four walls), not a second state (a copy of all twelve
-    /// columns cost 280 B per grain of the ~1 kB a grain costs, issue 21 item 8).
+    /// most once: a shorter order drops the grains it leaves out), column by column through
+    /// `scratch`: the extra memory is one column of each type (136 B per grain with four
+    /// walls), not a second state (a copy of all twelve columns cost 280 B per grain of the
+    /// ~1 kB a grain costs, issue 21 item 8).
     /// The team's members share the new indices in equal contiguous ranges (the ranges of
     /// the per-grain passes that follow, so each member's grains land in its own cache); a
     /// copy does not depend on who made it.
