@@ -253,6 +253,8 @@ fn i_liggghts_checkpoint_restores_the_engine() {
             "contact.tangential=history".to_string(),
             // The slab inlet's batches (below); the conveyor's restore: test m_.
             "inlet.mode=\"slab\"".to_string(),
+            // The step of the counts and the bound below (2 µs, t_c/50).
+            "dem.dt_fraction=50".to_string(),
         ],
     )
     .unwrap();

@@ -4,9 +4,11 @@ mod common;
 use common::*;
 use plugflow_coupling::DemBackend;
 
-/// Head-on collision of two grains; returns (restitution, contact duration, dt).
-fn binary_collision(contact: &str, v: f64) -> (f64, f64, f64) {
-    let mut dem = engine(&box_scene("[0, 0, 0]", contact, "[dem]\nrotation = false"));
+/// Head-on collision of two grains at dt = t_c / `steps`; returns (restitution, contact
+/// duration, dt).
+fn binary_collision(contact: &str, v: f64, steps: f64) -> (f64, f64, f64) {
+    let dem_table = format!("[dem]\nrotation = false\ndt_fraction = {steps}");
+    let mut dem = engine(&box_scene("[0, 0, 0]", contact, &dem_table));
     let r = 0.7e-3;
     let dt = dem.time_step();
     // First touch 5.37 steps in. A touch that falls within ~1e-3 of a step boundary makes
@@ -36,22 +38,25 @@ fn binary_collision(contact: &str, v: f64) -> (f64, f64, f64) {
     (vout / v, steps_in_contact as f64 * dt, dt)
 }
 
-/// Grain hitting a plane wall head-on; returns (restitution, contact duration, dt).
-fn wall_collision(contact: &str, v: f64) -> (f64, f64, f64) {
+/// Grain hitting a plane wall head-on at dt = t_c / `steps`; returns (restitution, contact
+/// duration, dt).
+fn wall_collision(contact: &str, v: f64, steps: f64) -> (f64, f64, f64) {
     // First touch 5.37 steps in (see `binary_collision` on step-aligned touches).
-    wall_collision_from(contact, v, |dt| v * dt * 5.37)
+    wall_collision_from(contact, v, steps, |dt| v * dt * 5.37)
 }
 
 /// [`wall_collision`] from a gap of `gap(dt)` metres.
-fn wall_collision_from(contact: &str, v: f64, gap: impl Fn(f64) -> f64) -> (f64, f64, f64) {
-    let walls = r#"
-[dem]
-rotation = false
-[[walls]]
-name = "floor"
-point = [0, 0, 0]
-normal = [0, 0, 1]"#;
-    let mut dem = engine(&box_scene("[0, 0, 0]", contact, walls));
+fn wall_collision_from(
+    contact: &str,
+    v: f64,
+    steps: f64,
+    gap: impl Fn(f64) -> f64,
+) -> (f64, f64, f64) {
+    let walls = format!(
+        "[dem]\nrotation = false\ndt_fraction = {steps}\n[[walls]]\nname = \"floor\"\n\
+         point = [0, 0, 0]\nnormal = [0, 0, 1]"
+    );
+    let mut dem = engine(&box_scene("[0, 0, 0]", contact, &walls));
     let r = 0.7e-3;
     let dt = dem.time_step();
     dem.insert(&[grain([0.0, 0.0, r + gap(dt)], [0.0, 0.0, -v])])
@@ -74,13 +79,20 @@ normal = [0, 0, 1]"#;
 fn hooke_restitution_and_contact_time_grain_grain_and_wall() {
     // Analytic: e exactly as set; duration π/ω_d = the scene's contact time (1e-4 s) for a
     // grain pair and √2 × that against a wall (m* = m instead of m/2).
-    // Tolerance on e: 1 % (the issue's). The dashpot sees velocities predicted to the full
-    // step (see NativeDem::predict_velocities), which leaves an O((dt/t_c)²) error: measured
-    // 0.4992 at t_c/50, 0.4998 at t_c/100. Duration is counted in whole steps: ± 2 dt.
-    let (e, tc, dt) = binary_collision(HOOKE, 0.5);
+    // Tolerance on e: 1 % (the issue's), at t_c/50. The discrete contact ends at a step
+    // boundary, so e carries an error of first order in dt/t_c whose sign depends on where
+    // within a step the contact ends (measured e, grain–grain / grain–wall, Hooke: t_c/20
+    // 0.4950 / 0.5045, t_c/30 0.4978 / 0.5058, t_c/40 0.4988 / 0.5063, t_c/50 0.4992 /
+    // 0.4967, t_c/100 0.4998 / 0.5020; Hertz within 0.4 % at t_c/30). At the default step
+    // (t_c/30, since session 35) the wall's Hooke e is 1.2 % high: README, "Choosing
+    // accuracy". Duration is counted in whole steps: ± 2 dt.
+    let (e, tc, dt) = binary_collision(HOOKE, 0.5, 50.0);
     assert!((e - 0.5).abs() < 0.005, "grain-grain e = {e}");
     assert!((tc - 1e-4).abs() <= 2.0 * dt, "grain-grain t_c = {tc}");
-    let (e, tc, dt) = wall_collision(HOOKE, 0.5);
+    // Grain–grain at the default step, too (−0.44 % measured).
+    let (e, _, _) = binary_collision(HOOKE, 0.5, 30.0);
+    assert!((e - 0.5).abs() < 0.005, "grain-grain e at t_c/30 = {e}");
+    let (e, tc, dt) = wall_collision(HOOKE, 0.5, 50.0);
     assert!((e - 0.5).abs() < 0.005, "grain-wall e = {e}");
     let expect = 1e-4 * 2f64.sqrt();
     assert!(
@@ -96,7 +108,7 @@ fn a_grain_from_many_skins_away_still_meets_the_wall() {
     // must be picked up on the way by a rebuild and bounce with the set restitution and
     // contact time, within the near-start test's tolerances (1 %, ± 2 dt). The gap is
     // 5 mm plus 0.37 of a step's travel, to keep the touch off a step boundary.
-    let (e, tc, dt) = wall_collision_from(HOOKE, 0.1, |dt| 5e-3 + 0.1 * dt * 0.37);
+    let (e, tc, dt) = wall_collision_from(HOOKE, 0.1, 50.0, |dt| 5e-3 + 0.1 * dt * 0.37);
     assert!((e - 0.5).abs() < 0.005, "grain-wall e = {e}");
     let expect = 1e-4 * 2f64.sqrt();
     assert!(
@@ -108,13 +120,22 @@ fn a_grain_from_many_skins_away_still_meets_the_wall() {
 #[test]
 fn hertz_restitution_is_the_set_value_at_any_speed() {
     // Tsuji damping makes e independent of the impact speed; α is chosen so that the
-    // continuous-time e is exactly the set one. 1 % as the issue asks (time discretisation
-    // at t_c/50 changes it by a fraction of that, see the Hooke test).
-    for v in [0.1, 0.5, 1.0] {
-        let (e, _, _) = binary_collision(HERTZ, v);
-        assert!((e - 0.5).abs() < 0.005, "grain-grain v={v}: e = {e}");
-        let (e, _, _) = wall_collision(HERTZ, v);
-        assert!((e - 0.5).abs() < 0.005, "grain-wall v={v}: e = {e}");
+    // continuous-time e is exactly the set one. 1 % as the issue asks, at t_c/50 and at the
+    // default t_c/30 (time discretisation changes it by a fraction of that, see the Hooke
+    // test).
+    for steps in [50.0, 30.0] {
+        for v in [0.1, 0.5, 1.0] {
+            let (e, _, _) = binary_collision(HERTZ, v, steps);
+            assert!(
+                (e - 0.5).abs() < 0.005,
+                "t_c/{steps} grain-grain v={v}: e = {e}"
+            );
+            let (e, _, _) = wall_collision(HERTZ, v, steps);
+            assert!(
+                (e - 0.5).abs() < 0.005,
+                "t_c/{steps} grain-wall v={v}: e = {e}"
+            );
+        }
     }
 }
 
@@ -124,7 +145,7 @@ fn hertz_elastic_contact_time_matches_hertz_theory() {
     // gives ± 1 step; the 2.868 constant is given to 4 digits (0.03 %).
     let elastic = HERTZ.replace("restitution = 0.5", "restitution = 1.0");
     let v = 0.5;
-    let (e, tc, dt) = binary_collision(&elastic, v);
+    let (e, tc, dt) = binary_collision(&elastic, v, 50.0);
     let m = 937.0 * 4.0 / 3.0 * std::f64::consts::PI * 0.7e-3f64.powi(3);
     let (m_eff, r_eff) = (m / 2.0, 0.35e-3);
     let y_star = 1e7 / (2.0 * (1.0 - 0.09));
@@ -192,15 +213,15 @@ fn elastic_impact_energy_error_converges_with_dt() {
     // The velocity-Verlet error of a collision that starts and ends between steps: the
     // force switches on with a kink at δ = 0, so the energy error is bounded by C (dt/t_c)^p.
     // Observed here: p ≈ 2 (the kink is in the force's derivative, not the force). We
-    // require the bound at t_c/50 (default) to be below 1 % and the observed order over
+    // require the bound at t_c/30 (the default) to be below 1 % and the observed order over
     // dt/t_c = 1/25 … 1/200 to be at least 1.5 — a first-order error would fail it.
-    let errs: Vec<f64> = [25.0, 50.0, 100.0, 200.0]
+    let errs: Vec<f64> = [25.0, 30.0, 50.0, 100.0, 200.0]
         .iter()
         .map(|&s| elastic_energy_error(s))
         .collect();
-    let order = (errs[0] / errs[3]).log2() / 3.0;
+    let order = (errs[0] / errs[4]).log2() / 3.0;
     eprintln!("elastic energy errors {errs:?}, observed order {order:.2}");
-    assert!(errs[1] < 0.01, "energy error at t_c/50 = {}", errs[1]);
+    assert!(errs[1] < 0.01, "energy error at t_c/30 = {}", errs[1]);
     assert!(order > 1.5, "observed order {order:.2} from {errs:?}");
 }
 

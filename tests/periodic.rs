@@ -218,8 +218,10 @@ fn a_periodic_tube_section_keeps_its_grains_and_their_drift() {
     // A horizontal periodic section (x, 20 mm long, 7 mm across) with 150 grains given an
     // axial drift of 0.3 m/s, settling under gravity against the wall: no grain is lost at
     // the seam, every one stays inside the tube and within the period after a build, and
-    // the section's axial momentum falls (wall friction brakes it; nothing feeds it) but
-    // is not gone in 0.1 s.
+    // the section's axial momentum falls in size (wall friction brakes it; nothing feeds
+    // it). It may be gone by 0.1 s: a grain sliding on the wall stops in 0.3 / (μ g) =
+    // 0.06 s, and the tangential springs' recoil can leave a trace of either sign (t_c/50:
+    // +0.60 of 45 kept; t_c/30: −0.24).
     let text = r#"
 schema_version = 1
 name = "periodic-tube"
@@ -265,7 +267,7 @@ velocity = ["0.3 m/s", "0 m/s", "0 m/s"]
         }
     }
     let end = momentum(&dem);
-    assert!(end < start && end > 0.0, "axial momentum {start} → {end}");
+    assert!(end.abs() < start, "axial momentum {start} → {end}");
 }
 
 #[test]
