@@ -4,11 +4,19 @@ mod common;
 use common::*;
 use plugflow_coupling::DemBackend;
 
+/// The `[dem]` table of the collision scenes: no rotation (head-on), dt = t_c / `steps`.
+fn collision_dem_table(steps: f64) -> String {
+    format!("[dem]\nrotation = false\ndt_fraction = {steps}\n")
+}
+
 /// Head-on collision of two grains at dt = t_c / `steps`; returns (restitution, contact
 /// duration, dt).
 fn binary_collision(contact: &str, v: f64, steps: f64) -> (f64, f64, f64) {
-    let dem_table = format!("[dem]\nrotation = false\ndt_fraction = {steps}");
-    let mut dem = engine(&box_scene("[0, 0, 0]", contact, &dem_table));
+    let mut dem = engine(&box_scene(
+        "[0, 0, 0]",
+        contact,
+        &collision_dem_table(steps),
+    ));
     let r = 0.7e-3;
     let dt = dem.time_step();
     // First touch 5.37 steps in. A touch that falls within ~1e-3 of a step boundary makes
@@ -52,10 +60,8 @@ fn wall_collision_from(
     steps: f64,
     gap: impl Fn(f64) -> f64,
 ) -> (f64, f64, f64) {
-    let walls = format!(
-        "[dem]\nrotation = false\ndt_fraction = {steps}\n[[walls]]\nname = \"floor\"\n\
-         point = [0, 0, 0]\nnormal = [0, 0, 1]"
-    );
+    let walls = collision_dem_table(steps)
+        + "[[walls]]\nname = \"floor\"\npoint = [0, 0, 0]\nnormal = [0, 0, 1]";
     let mut dem = engine(&box_scene("[0, 0, 0]", contact, &walls));
     let r = 0.7e-3;
     let dt = dem.time_step();
