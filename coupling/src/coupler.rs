@@ -532,26 +532,17 @@ fn sum_over_ranks(
     sums: &mut [NodeSums],
     buffer: &mut Vec<f64>,
 ) -> Result<(), BackendError> {
-    let n = sums[0].solid.len();
+    let n = sums[0].node.len();
     buffer.clear();
     buffer.resize(4 * n, 0.0);
     for part in sums.iter() {
-        for j in 0..n {
-            buffer[j] += part.solid[j];
-            for k in 0..3 {
-                buffer[n + 3 * j + k] += part.momentum[j][k];
-            }
+        for (b, add) in buffer.iter_mut().zip(part.node.iter().flatten()) {
+            *b += add;
         }
     }
     dem.all_reduce(buffer, Reduce::Sum)?;
-    let first = &mut sums[0];
-    first.solid.copy_from_slice(&buffer[..n]);
-    for (j, m) in first.momentum.iter_mut().enumerate() {
-        *m = [
-            buffer[n + 3 * j],
-            buffer[n + 3 * j + 1],
-            buffer[n + 3 * j + 2],
-        ];
+    for (sum, b) in sums[0].node.iter_mut().zip(buffer.chunks_exact(4)) {
+        sum.copy_from_slice(b);
     }
     Ok(())
 }
@@ -590,7 +581,8 @@ fn drag_on(
 ) -> Option<usize> {
     for i in 0..forces.len() {
         // The grains have not moved since the deposit: reuse its stencils.
-        let Some(st) = stencils[i] else {
+        // (By reference: a stencil is 100 bytes.)
+        let Some(st) = &stencils[i] else {
             forces[i] = [0.0; 3];
             continue;
         };
@@ -599,15 +591,15 @@ fn drag_on(
             volume: 4.0 / 3.0 * std::f64::consts::PI * r * r * r,
             diameter: 2.0 * r,
             velocity: velocity[i],
-            porosity: interpolate_scalar(&st, gas.porosity),
-            pressure_gradient: interpolate_vec3(&st, gas.pressure_gradient),
+            porosity: interpolate_scalar(st, gas.porosity),
+            pressure_gradient: interpolate_vec3(st, gas.pressure_gradient),
             gas_velocity: gas
                 .gas_velocity
-                .map_or([0.0; 3], |u| interpolate_vec3(&st, u)),
+                .map_or([0.0; 3], |u| interpolate_vec3(st, u)),
             gas_density: gas
                 .gas_density
-                .map_or(0.0, |rho| interpolate_scalar(&st, rho)),
-            vorticity: gas.vorticity.map_or([0.0; 3], |w| interpolate_vec3(&st, w)),
+                .map_or(0.0, |rho| interpolate_scalar(st, rho)),
+            vorticity: gas.vorticity.map_or([0.0; 3], |w| interpolate_vec3(st, w)),
         };
         let mut f = of.drag.force(&grain);
         for more in of.more {

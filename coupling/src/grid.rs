@@ -232,7 +232,7 @@ impl TubeGrid {
     }
 
     /// Tube-frame coordinates (s along the axis, u, w across) of a point.
-    #[inline]
+    #[inline(always)]
     pub fn local(&self, x: Vec3) -> (Real, Real, Real) {
         let r = [
             x[0] - self.origin[0],
@@ -251,57 +251,100 @@ impl TubeGrid {
     }
 
     /// [`TubeGrid::stencil`] of a point given in tube-frame coordinates (s, u, w).
-    #[inline]
-    pub fn stencil_local(&self, (s, u, w): (Real, Real, Real)) -> Stencil {
-        // The two nodes either side of a coordinate and their tent weights; a direction that
-        // wraps (a periodic section's axis) takes the last node as the first's neighbour
-        // below, one that does not clamps onto its end nodes.
-        let axis_weights =
-            |coord: Real, lo: Real, h: Real, n: usize, wraps: bool| -> ([usize; 2], [Real; 2]) {
-                if n == 1 {
-                    return ([0, 0], [1.0, 0.0]);
-                }
-                let f = (coord - lo) / h - 0.5;
-                let (f, top) = if wraps {
-                    (f.rem_euclid(n as Real), n - 1)
-                } else {
-                    (f.clamp(0.0, (n - 1) as Real), n - 2)
-                };
-                let k0 = (f.floor() as usize).min(top);
-                let t = f - k0 as Real;
-                ([k0, (k0 + 1) % n], [1.0 - t, t])
-            };
-        let (kz, wz) = axis_weights(s, 0.0, self.dz, self.nz, self.periodic);
-        let (kx, wx) = axis_weights(u, -self.radius, self.dx, self.nx, false);
-        let (ky, wy) = axis_weights(w, -self.radius, self.dy, self.ny, false);
+    ///
+    /// Written for speed (it runs for every grain at every exchange): no libm call, no
+    /// integer division, the 4 columns' open flags looked up once. The weights and their
+    /// order are those of the plain triple loop over (slice, column, row).
+    pub fn stencil_local(&self, local: (Real, Real, Real)) -> Stencil {
         let mut st = Stencil::default();
-        let mut dropped = false;
-        for a in 0..2 {
-            for b in 0..2 {
-                for c in 0..2 {
-                    let weight = wz[a] * wx[b] * wy[c];
-                    if weight <= 0.0 {
-                        continue;
-                    }
-                    if !self.open[kx[b] + self.nx * ky[c]] {
-                        dropped = true;
-                        continue;
-                    }
-                    let n = st.len as usize;
-                    st.node[n] = self.node(kz[a], kx[b], ky[c]) as u32;
-                    st.weight[n] = weight;
-                    st.len += 1;
-                }
-            }
-        }
-        let kept: Real = st.weight[..st.len as usize].iter().sum();
-        if dropped && kept > 0.0 {
-            st.weight[..st.len as usize]
-                .iter_mut()
-                .for_each(|w| *w /= kept);
-        }
+        self.write_stencil(local, &mut st);
         st
     }
+
+    /// [`TubeGrid::stencil_local`] written in place, over whatever `st` held: the deposit
+    /// writes each grain's stencil straight into its slot (a stencil built apart and copied
+    /// in is read back in 16-byte pieces its 4- and 8-byte writes cannot forward, a stall
+    /// per piece).
+    #[inline(always)]
+    pub fn write_stencil(&self, local: (Real, Real, Real), st: &mut Stencil) {
+        self.write_stencil_at(self.tent_coordinates(local), st);
+    }
+
+    /// A point's coordinates in node units along each direction (s, u, w), less one half:
+    /// the tent weights' argument, before clamping or wrapping (node k sits at k).
+    #[inline(always)]
+    pub fn tent_coordinates(&self, (s, u, w): (Real, Real, Real)) -> [Real; 3] {
+        [
+            s / self.dz - 0.5,
+            (u + self.radius) / self.dx - 0.5,
+            (w + self.radius) / self.dy - 0.5,
+        ]
+    }
+
+    /// [`TubeGrid::write_stencil`] from the point's [`TubeGrid::tent_coordinates`] (the
+    /// deposit takes those for a block of grains first: the divisions then overlap).
+    #[inline(always)]
+    pub fn write_stencil_at(&self, [fz, fx, fy]: [Real; 3], st: &mut Stencil) {
+        let (kz, wz) = axis_weights(fz, self.nz, self.periodic);
+        let (kx, wx) = axis_weights(fx, self.nx, false);
+        let (ky, wy) = axis_weights(fy, self.ny, false);
+        let slice = self.nx * self.ny;
+        let column = |b: usize, c: usize| kx[b] + self.nx * ky[c];
+        let columns = [column(0, 0), column(0, 1), column(1, 0), column(1, 1)];
+        let open = columns.map(|col| self.open[col]);
+        st.len = 0;
+        let mut dropped = false;
+        for a in 0..2 {
+            let base = kz[a] * slice;
+            for bc in 0..4 {
+                let weight = wz[a] * wx[bc >> 1] * wy[bc & 1];
+                if weight <= 0.0 {
+                    continue;
+                }
+                if !open[bc] {
+                    dropped = true;
+                    continue;
+                }
+                let n = st.len as usize;
+                st.node[n] = (base + columns[bc]) as u32;
+                st.weight[n] = weight;
+                st.len += 1;
+            }
+        }
+        if dropped {
+            let kept: Real = st.weight[..st.len as usize].iter().sum();
+            if kept > 0.0 {
+                st.weight[..st.len as usize]
+                    .iter_mut()
+                    .for_each(|w| *w /= kept);
+            }
+        }
+    }
+}
+
+/// The two nodes either side of a point along one direction of the grid and their tent
+/// weights (eq. 7), from its tent coordinate `f` (see [`TubeGrid::tent_coordinates`]) and
+/// the direction's node count `n`. A direction that wraps (a periodic section's axis) takes
+/// the last node as the first's neighbour below; one that does not clamps onto its end
+/// nodes.
+#[inline(always)]
+fn axis_weights(f: Real, n: usize, wraps: bool) -> ([usize; 2], [Real; 2]) {
+    if n == 1 {
+        return ([0, 0], [1.0, 0.0]);
+    }
+    let (f, top) = if wraps {
+        // (f % n is f itself on [0, n): the remainder's libm call only outside it.)
+        let inside = (0.0..(n as Real)).contains(&f);
+        (if inside { f } else { f.rem_euclid(n as Real) }, n - 1)
+    } else {
+        (f.clamp(0.0, (n - 1) as Real), n - 2)
+    };
+    // f ≥ 0 here (or NaN, which casts to 0 as its floor does): truncation is the floor.
+    // (Through i64: the conversions are single instructions, unsigned ones are not.)
+    let k0 = ((f as i64) as usize).min(top);
+    let t = f - k0 as i64 as Real;
+    let k1 = if k0 + 1 == n { 0 } else { k0 + 1 };
+    ([k0, k1], [1.0 - t, t])
 }
 
 /// Granular fields on the nodes (eq. 8), and the stencil of every grain that made them.
@@ -324,10 +367,9 @@ pub struct GranularFields {
 /// One range of grains' share of a deposit: their volume and momentum summed per node.
 #[derive(Debug, Clone, Default)]
 pub struct NodeSums {
-    /// Σ w V over the range's grains, m³.
-    pub solid: Vec<Real>,
-    /// Σ w V v, m³·m/s.
-    pub momentum: Vec<Vec3>,
+    /// Per node: Σ w V (m³), then Σ w V v (m³·m/s, three components). One 32-byte entry
+    /// per node: a grain's share goes on in one vector addition.
+    pub node: Vec<[Real; 4]>,
 }
 
 /// Deposit grains (centres `x`, velocities `v`, radii `r`) onto the grid. Grains outside the
@@ -352,30 +394,79 @@ pub fn deposit_part(
     stencils: &mut [Option<Stencil>],
     sums: &mut NodeSums,
 ) {
+    #[cfg(target_arch = "x86_64")]
+    if std::arch::is_x86_feature_detected!("avx2") {
+        // SAFETY: the CPU has AVX2 (checked just above).
+        unsafe { deposit_part_avx2(grid, x, v, r, stencils, sums) };
+        return;
+    }
+    deposit_part_body(grid, x, v, r, stencils, sums);
+}
+
+/// [`deposit_part_body`] compiled for AVX2 (no FMA: the same roundings as the baseline).
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+unsafe fn deposit_part_avx2(
+    grid: &TubeGrid,
+    x: &[Vec3],
+    v: &[Vec3],
+    r: &[Real],
+    stencils: &mut [Option<Stencil>],
+    sums: &mut NodeSums,
+) {
+    deposit_part_body(grid, x, v, r, stencils, sums);
+}
+
+#[inline(always)]
+fn deposit_part_body(
+    grid: &TubeGrid,
+    x: &[Vec3],
+    v: &[Vec3],
+    r: &[Real],
+    stencils: &mut [Option<Stencil>],
+    sums: &mut NodeSums,
+) {
     let n = grid.len();
-    let NodeSums { solid, momentum } = sums;
-    solid.clear();
-    solid.resize(n, 0.0);
-    momentum.clear();
-    momentum.resize(n, [0.0; 3]);
-    for p in 0..x.len() {
-        let local = grid.local(x[p]);
-        // (A periodic section holds every grain: between neighbour builds one may sit past
-        // the seam, and its weights wrap around.)
-        if !grid.periodic && !(0.0..=grid.length).contains(&local.0) {
-            stencils[p] = None;
-            continue;
+    let node_sums = &mut sums.node;
+    node_sums.clear();
+    node_sums.resize(n, [0.0; 4]);
+    // Blocks of grains: first every grain's tent coordinates (three divisions each, which
+    // overlap when nothing waits on them), then the stencils and the sums.
+    const BLOCK: usize = 32;
+    let mut axial = [0.0; BLOCK];
+    let mut tent = [[0.0; 3]; BLOCK];
+    for start in (0..x.len()).step_by(BLOCK) {
+        let end = (start + BLOCK).min(x.len());
+        for (k, p) in (start..end).enumerate() {
+            let local = grid.local(x[p]);
+            axial[k] = local.0;
+            tent[k] = grid.tent_coordinates(local);
         }
-        let vol = 4.0 / 3.0 * std::f64::consts::PI * r[p] * r[p] * r[p];
-        let st = grid.stencil_local(local);
-        stencils[p] = Some(st);
-        for q in 0..st.len as usize {
-            let node = st.node[q] as usize;
-            let wv = st.weight[q] * vol;
-            solid[node] += wv;
-            for c in 0..3 {
-                momentum[node][c] += wv * v[p][c];
+        for (k, p) in (start..end).enumerate() {
+            // (A periodic section holds every grain: between neighbour builds one may sit
+            // past the seam, and its weights wrap around.)
+            if !grid.periodic && !(0.0..=grid.length).contains(&axial[k]) {
+                stencils[p] = None;
+                continue;
             }
+            let vol = 4.0 / 3.0 * std::f64::consts::PI * r[p] * r[p] * r[p];
+            let st = stencils[p].get_or_insert_with(Stencil::default);
+            grid.write_stencil_at(tent[k], st);
+            scatter(st, vol, v[p], node_sums);
+        }
+    }
+}
+
+/// One grain's volume `vol` (m³) and momentum `vol · v` onto the nodes of its stencil.
+#[inline(always)]
+fn scatter(st: &Stencil, vol: Real, v: Vec3, node_sums: &mut [[Real; 4]]) {
+    // (w V · 1 is w V exactly: the volume and the momentum in one product.)
+    let per_weight = [1.0, v[0], v[1], v[2]];
+    for q in 0..st.len as usize {
+        let wv = st.weight[q] * vol;
+        let sum = &mut node_sums[st.node[q] as usize];
+        for c in 0..4 {
+            sum[c] += wv * per_weight[c];
         }
     }
 }
@@ -387,13 +478,13 @@ pub fn finish_deposit(grid: &TubeGrid, parts: &[NodeSums], out: &mut GranularFie
     out.porosity.clear();
     out.velocity.clear();
     for j in 0..n {
-        let (mut solid, mut momentum) = (parts[0].solid[j], parts[0].momentum[j]);
+        let mut sum = parts[0].node[j];
         for part in &parts[1..] {
-            solid += part.solid[j];
-            for (m, add) in momentum.iter_mut().zip(part.momentum[j]) {
-                *m += add;
+            for (s, add) in sum.iter_mut().zip(part.node[j]) {
+                *s += add;
             }
         }
+        let (solid, momentum) = (sum[0], [sum[1], sum[2], sum[3]]);
         // (Closed nodes hold no grain and may have no volume: empty.)
         let volume = if grid.whole_cell_porosity {
             grid.dz * grid.dx * grid.dy
@@ -418,6 +509,7 @@ pub fn finish_deposit(grid: &TubeGrid, parts: &[NodeSums], out: &mut GranularFie
 }
 
 /// Interpolate a scalar node field to a point with the tent weights (eq. 9).
+#[inline]
 pub fn interpolate_scalar(stencil: &Stencil, field: &[Real]) -> Real {
     (0..stencil.len as usize)
         .map(|q| field[stencil.node[q] as usize] * stencil.weight[q])
@@ -425,6 +517,7 @@ pub fn interpolate_scalar(stencil: &Stencil, field: &[Real]) -> Real {
 }
 
 /// Interpolate a vector node field to a point with the tent weights (eq. 9).
+#[inline]
 pub fn interpolate_vec3(stencil: &Stencil, field: &[Vec3]) -> Vec3 {
     let mut acc = [0.0; 3];
     for q in 0..stencil.len as usize {

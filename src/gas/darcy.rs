@@ -800,19 +800,23 @@ impl GasSolver for DarcyGas {
                     } else {
                         (p[g.node(k + 1, i, j)] - p[g.node(k - 1, i, j)]) / (2.0 * g.dz)
                     };
-                    let across = |m: usize, count: usize, h: Real, at: &dyn Fn(usize) -> usize| {
+                    // Across: one-sided at the wall's nodes, central inside; the m-th node
+                    // of the line is at base + m·stride (no closure object per node: this
+                    // runs for every node at every exchange).
+                    let across = |m: usize, count: usize, h: Real, base: usize, stride: usize| {
+                        let at = |q: usize| p[base + q * stride];
                         if count == 1 {
                             0.0
                         } else if m == 0 {
-                            (p[at(1)] - p[at(0)]) / h
+                            (at(1) - at(0)) / h
                         } else if m + 1 == count {
-                            (p[at(m)] - p[at(m - 1)]) / h
+                            (at(m) - at(m - 1)) / h
                         } else {
-                            (p[at(m + 1)] - p[at(m - 1)]) / (2.0 * h)
+                            (at(m + 1) - at(m - 1)) / (2.0 * h)
                         }
                     };
-                    let du = across(i, g.nx, g.dx, &|ii| g.node(k, ii, j));
-                    let dw = across(j, g.ny, g.dy, &|jj| g.node(k, i, jj));
+                    let du = across(i, g.nx, g.dx, g.node(k, 0, j), 1);
+                    let dw = across(j, g.ny, g.dy, g.node(k, i, 0), g.nx);
                     for c in 0..3 {
                         grad[n][c] = ds * g.axis[c] + du * g.e1[c] + dw * g.e2[c];
                     }
