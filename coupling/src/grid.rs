@@ -251,10 +251,6 @@ impl TubeGrid {
     }
 
     /// [`TubeGrid::stencil`] of a point given in tube-frame coordinates (s, u, w).
-    ///
-    /// Written for speed (it runs for every grain at every exchange): no libm call, no
-    /// integer division, the 4 columns' open flags looked up once. The weights and their
-    /// order are those of the plain triple loop over (slice, column, row).
     pub fn stencil_local(&self, local: (Real, Real, Real)) -> Stencil {
         let mut st = Stencil::default();
         self.write_stencil(local, &mut st);
@@ -266,14 +262,14 @@ impl TubeGrid {
     /// in is read back in 16-byte pieces its 4- and 8-byte writes cannot forward, a stall
     /// per piece).
     #[inline(always)]
-    pub fn write_stencil(&self, local: (Real, Real, Real), st: &mut Stencil) {
+    fn write_stencil(&self, local: (Real, Real, Real), st: &mut Stencil) {
         self.write_stencil_at(self.tent_coordinates(local), st);
     }
 
     /// A point's coordinates in node units along each direction (s, u, w), less one half:
     /// the tent weights' argument, before clamping or wrapping (node k sits at k).
     #[inline(always)]
-    pub fn tent_coordinates(&self, (s, u, w): (Real, Real, Real)) -> [Real; 3] {
+    fn tent_coordinates(&self, (s, u, w): (Real, Real, Real)) -> [Real; 3] {
         [
             s / self.dz - 0.5,
             (u + self.radius) / self.dx - 0.5,
@@ -283,8 +279,12 @@ impl TubeGrid {
 
     /// [`TubeGrid::write_stencil`] from the point's [`TubeGrid::tent_coordinates`] (the
     /// deposit takes those for a block of grains first: the divisions then overlap).
+    ///
+    /// Written for speed (it runs for every grain at every exchange): no libm call, no
+    /// integer division, the 4 columns' open flags looked up once. The weights and their
+    /// order are those of the plain triple loop over (slice, column, row).
     #[inline(always)]
-    pub fn write_stencil_at(&self, [fz, fx, fy]: [Real; 3], st: &mut Stencil) {
+    fn write_stencil_at(&self, [fz, fx, fy]: [Real; 3], st: &mut Stencil) {
         let (kz, wz) = axis_weights(fz, self.nz, self.periodic);
         let (kx, wx) = axis_weights(fx, self.nx, false);
         let (ky, wy) = axis_weights(fy, self.ny, false);
@@ -676,6 +676,154 @@ mod tests {
             .iter()
             .all(|&n| g.is_open(n as usize)));
         assert!(g.smallest_open_volume() > 0.5 * g.volume[g.node(0, 1, 0)]);
+    }
+
+    /// The deposit's fast stencils (`write_stencil_at` and the blocked, AVX2 deposit) are
+    /// the plain tent weights of eq. 7 to the bit: against a reference written as the
+    /// equation reads (floor, triple loop, closed nodes' weight shared out), for points
+    /// all over and beyond four grids (the seeds' 2 × 2, one with closed corner columns, a
+    /// periodic section, one with a single node across), and a whole deposit's sums
+    /// against the reference stencils' sums in the same order.
+    #[test]
+    fn fast_stencils_are_the_plain_tent_weights_bit_for_bit() {
+        fn reference(g: &TubeGrid, (s, u, w): (Real, Real, Real)) -> Stencil {
+            let axis = |coord: Real, lo: Real, h: Real, n: usize, wraps: bool| {
+                if n == 1 {
+                    return ([0, 0], [1.0, 0.0]);
+                }
+                let f = (coord - lo) / h - 0.5;
+                let (f, top) = if wraps {
+                    (f.rem_euclid(n as Real), n - 1)
+                } else {
+                    (f.clamp(0.0, (n - 1) as Real), n - 2)
+                };
+                let k0 = (f.floor() as usize).min(top);
+                let t = f - k0 as Real;
+                ([k0, (k0 + 1) % n], [1.0 - t, t])
+            };
+            let (kz, wz) = axis(s, 0.0, g.dz, g.nz, g.periodic);
+            let (kx, wx) = axis(u, -g.radius, g.dx, g.nx, false);
+            let (ky, wy) = axis(w, -g.radius, g.dy, g.ny, false);
+            let mut st = Stencil::default();
+            let mut dropped = false;
+            for a in 0..2 {
+                for b in 0..2 {
+                    for c in 0..2 {
+                        let weight = wz[a] * wx[b] * wy[c];
+                        if weight <= 0.0 {
+                            continue;
+                        }
+                        if !g.open[kx[b] + g.nx * ky[c]] {
+                            dropped = true;
+                            continue;
+                        }
+                        st.node[st.len as usize] = g.node(kz[a], kx[b], ky[c]) as u32;
+                        st.weight[st.len as usize] = weight;
+                        st.len += 1;
+                    }
+                }
+            }
+            let kept: Real = st.weight[..st.len as usize].iter().sum();
+            if dropped && kept > 0.0 {
+                st.weight[..st.len as usize]
+                    .iter_mut()
+                    .for_each(|w| *w /= kept);
+            }
+            st
+        }
+        let mut periodic = TubeGrid::new([0.0; 3], [1.0, 0.0, 0.0], 0.042, 1.0, 90, 8, 8);
+        periodic.periodic = true;
+        let grids = [
+            paper_grid(),
+            TubeGrid::new([0.0; 3], [0.0, 0.0, 1.0], 3.5e-3, 0.1, 10, 6, 6),
+            periodic,
+            TubeGrid::new([1.0, 2.0, 3.0], [0.0, 1.0, 0.0], 2.0e-3, 0.2, 40, 1, 4),
+        ];
+        let mut rng = 99u64;
+        let mut next = || {
+            rng = rng
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            (rng >> 11) as Real / (1u64 << 53) as Real
+        };
+        for (gi, g) in grids.iter().enumerate() {
+            // Points over the tube's square and 10 % beyond each end (clamped or wrapped),
+            // and the grid's node and cell-edge positions exactly.
+            let mut points: Vec<(Real, Real, Real)> = (0..4000)
+                .map(|_| {
+                    (
+                        (1.2 * next() - 0.1) * g.length,
+                        (2.0 * next() - 1.0) * g.radius,
+                        (2.0 * next() - 1.0) * g.radius,
+                    )
+                })
+                .collect();
+            for k in 0..=2 * g.nz {
+                let s = 0.5 * k as Real * g.dz;
+                points.push((s, -g.radius + 0.5 * g.dx, g.radius - 0.5 * g.dy));
+                points.push((s, 0.0, 0.0));
+            }
+            for &p in &points {
+                let (fast, plain) = (g.stencil_local(p), reference(g, p));
+                let len = plain.len as usize;
+                assert_eq!(fast.len, plain.len, "grid {gi}, point {p:?}");
+                assert_eq!(fast.node[..len], plain.node[..len], "grid {gi}, {p:?}");
+                let bits = |st: &Stencil| {
+                    st.weight[..len]
+                        .iter()
+                        .map(|w| w.to_bits())
+                        .collect::<Vec<_>>()
+                };
+                assert_eq!(bits(&fast), bits(&plain), "grid {gi}, point {p:?}");
+            }
+            // A whole deposit (blocked, AVX2 where the CPU has it) against the reference
+            // stencils summed grain by grain in the same order.
+            let inside: Vec<(Real, Real, Real)> = points
+                .iter()
+                .copied()
+                .filter(|p| g.periodic || (0.0..=g.length).contains(&p.0))
+                .filter(|p| p.1 * p.1 + p.2 * p.2 < g.radius * g.radius)
+                .collect();
+            let x: Vec<Vec3> = inside
+                .iter()
+                .map(|&(s, u, w)| {
+                    std::array::from_fn(|c| g.origin[c] + s * g.axis[c] + u * g.e1[c] + w * g.e2[c])
+                })
+                .collect();
+            let v: Vec<Vec3> = (0..x.len()).map(|_| [next(), next(), next()]).collect();
+            let r: Vec<Real> = (0..x.len()).map(|_| 1e-4 * (1.0 + next())).collect();
+            let mut fields = GranularFields::default();
+            deposit(g, &x, &v, &r, &mut fields);
+            let mut sums = vec![[0.0; 4]; g.len()];
+            for p in 0..x.len() {
+                // (The deposit's own test of the tube's length, on the point as it reads it.)
+                let local = g.local(x[p]);
+                if !g.periodic && !(0.0..=g.length).contains(&local.0) {
+                    continue;
+                }
+                let st = reference(g, local);
+                let vol = 4.0 / 3.0 * std::f64::consts::PI * r[p] * r[p] * r[p];
+                for q in 0..st.len as usize {
+                    let wv = st.weight[q] * vol;
+                    let sum = &mut sums[st.node[q] as usize];
+                    sum[0] += wv;
+                    for c in 0..3 {
+                        sum[1 + c] += wv * v[p][c];
+                    }
+                }
+            }
+            let mut expected = GranularFields::default();
+            finish_deposit(g, &[NodeSums { node: sums }], &mut expected);
+            let bits = |f: &GranularFields| -> Vec<u64> {
+                f.porosity
+                    .iter()
+                    .chain(f.velocity.iter().flatten())
+                    .map(|v| v.to_bits())
+                    .collect()
+            };
+            assert!(x.len() > 1000, "grid {gi}: {} grains", x.len());
+            assert_eq!(bits(&fields), bits(&expected), "grid {gi}");
+        }
     }
 
     /// A deposit cut into ranges (as the engine's team members make it) and finished
