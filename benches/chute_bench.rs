@@ -31,6 +31,9 @@ use plugflow::dem::NativeDem;
 use plugflow::scene::Scene;
 use plugflow_coupling::DemBackend;
 
+mod common;
+use common::flag;
+
 const LX: f64 = 40.0;
 const LY: f64 = 20.0;
 const ZLO: f64 = -2.0;
@@ -49,18 +52,10 @@ struct Grain {
 }
 
 fn main() {
-    let args: Vec<String> = std::env::args().collect();
-    let value = |flag: &str, default: u64| -> u64 {
-        args.iter()
-            .position(|a| a == flag)
-            .and_then(|k| args.get(k + 1))
-            .and_then(|s| s.parse().ok())
-            .unwrap_or(default)
-    };
-    let steps = value("--steps", 1000);
-    let repeat = value("--repeat", 5).max(1) as usize;
-    let pour = value("--pour", 50_000);
-    let profile = value("--profile", 0);
+    let steps = flag::<u64>("--steps").unwrap_or(1000);
+    let repeat = flag::<u64>("--repeat").unwrap_or(5).max(1) as usize;
+    let pour = flag::<u64>("--pour").unwrap_or(50_000);
+    let profile = flag::<u64>("--profile").unwrap_or(0);
     let dir = std::env::temp_dir().join(format!("plugflow-chute-{}", std::process::id()));
     std::fs::create_dir_all(&dir).expect("scratch folder");
 

@@ -20,6 +20,9 @@ use std::time::Instant;
 
 use plugflow::scene::Scene;
 
+mod common;
+use common::flag;
+
 /// One coupled run of one engine.
 struct Timing {
     /// Particle-steps per second of the coupled run.
@@ -32,20 +35,9 @@ struct Timing {
 
 fn main() {
     let args: Vec<String> = std::env::args().collect();
-    let value = |flag: &str| -> Option<String> {
-        args.iter()
-            .position(|a| a == flag)
-            .and_then(|k| args.get(k + 1))
-            .cloned()
-    };
-    let duration: f64 = value("--duration")
-        .and_then(|s| s.parse().ok())
-        .unwrap_or(1.0);
-    let repeat: usize = value("--repeat")
-        .and_then(|s| s.parse().ok())
-        .unwrap_or(1)
-        .max(1);
-    let engines: Vec<String> = value("--engines")
+    let duration: f64 = flag("--duration").unwrap_or(1.0);
+    let repeat: usize = flag("--repeat").unwrap_or(1).max(1);
+    let engines: Vec<String> = flag::<String>("--engines")
         .unwrap_or_else(|| "native,liggghts,yade".into())
         .split(',')
         .map(str::to_owned)

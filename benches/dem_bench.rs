@@ -18,22 +18,18 @@ use plugflow::scene::Scene;
 use plugflow_coupling::abi::AbiBackend;
 use plugflow_coupling::{DemBackend, NewParticle};
 
+mod common;
+use common::flag;
+
 fn main() {
     let args: Vec<String> = std::env::args().collect();
-    // The value after `--name`, when given and readable.
-    let value = |name: &str| -> Option<u64> {
-        args.iter()
-            .position(|a| a == name)
-            .and_then(|k| args.get(k + 1))
-            .and_then(|s| s.parse().ok())
-    };
-    let steps: u64 = value("--steps").unwrap_or(20_000);
+    let steps: u64 = flag::<u64>("--steps").unwrap_or(20_000);
     // Timings of the built-in DEM and of LIGGGHTS repeated this often; medians are reported
     // (a shared machine's neighbours slow single runs by 5–20 %).
-    let repeat = value("--repeat").unwrap_or(1).max(1) as usize;
+    let repeat = flag::<u64>("--repeat").unwrap_or(1).max(1) as usize;
     // Steps per exchange in the ABI bridge timing (a coupled run's coupling interval;
     // fewer steps per exchange weigh the exchange's own cost more).
-    let chunk: u64 = value("--chunk").unwrap_or(50).max(1);
+    let chunk: u64 = flag::<u64>("--chunk").unwrap_or(50).max(1);
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));
     let scene_path = root.join("cases/bench_bed.toml");
     let scene = Scene::load(&scene_path, &[]).expect("bench scene");

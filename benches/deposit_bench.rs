@@ -15,6 +15,9 @@ use plugflow::Real;
 use plugflow_coupling::grid::{interpolate_scalar, interpolate_vec3};
 use plugflow_coupling::{deposit, GranularFields, TubeGrid, Vec3};
 
+mod common;
+use common::flag;
+
 /// A deterministic uniform stream in [0, 1) (a 64-bit LCG's upper bits).
 struct Uniform(u64);
 
@@ -90,15 +93,8 @@ fn run(label: &str, grid: &TubeGrid, count: usize, r: Real, exchanges: usize, re
 }
 
 fn main() {
-    let args: Vec<String> = std::env::args().collect();
-    let value = |flag: &str| -> Option<usize> {
-        args.iter()
-            .position(|a| a == flag)
-            .and_then(|k| args.get(k + 1))
-            .and_then(|s| s.parse().ok())
-    };
-    let exchanges = value("--exchanges").unwrap_or(2000).max(1);
-    let repeat = value("--repeat").unwrap_or(5).max(1);
+    let exchanges = flag::<usize>("--exchanges").unwrap_or(2000).max(1);
+    let repeat = flag::<usize>("--repeat").unwrap_or(5).max(1);
     let horizontal = TubeGrid::new([0.0; 3], [1.0, 0.0, 0.0], 3.5e-3, 0.525, 150, 2, 2);
     run(
         "horizontal case, 150×2×2 nodes, 3000 grains",

@@ -15,6 +15,9 @@ use plugflow::Real;
 use plugflow_coupling::drag::DiFelice;
 use plugflow_coupling::{GasSolver, GranularFields, TubeGrid};
 
+mod common;
+use common::flag;
+
 /// Lethe's pipe: radius, length, m; the grid's cells along and across.
 const RADIUS: Real = 0.042;
 const LENGTH: Real = 1.0;
@@ -58,15 +61,8 @@ fn fields_at(grid: &TubeGrid, t: Real) -> GranularFields {
 }
 
 fn main() {
-    let args: Vec<String> = std::env::args().collect();
-    let value = |flag: &str| -> Option<usize> {
-        args.iter()
-            .position(|a| a == flag)
-            .and_then(|k| args.get(k + 1))
-            .and_then(|s| s.parse().ok())
-    };
-    let steps = value("--steps").unwrap_or(100).max(1);
-    let repeat = value("--repeat").unwrap_or(3).max(1);
+    let steps = flag::<usize>("--steps").unwrap_or(100).max(1);
+    let repeat = flag::<usize>("--repeat").unwrap_or(3).max(1);
     let mut grid = TubeGrid::new(
         [0.0; 3],
         [1.0, 0.0, 0.0],
