@@ -6,11 +6,17 @@
 //! per gas step (median over the repeats) and the SIMPLE iterations per step: the gas's
 //! share of a 3D coupled run. Not a test: numbers depend on the machine.
 //!
-//! cargo bench --bench gas_bench [-- --steps N] [--repeat R]
+//! With `--model darcy`: the seeds' d'Arcy gas instead (`cases/horizontal_slug.toml`: the
+//! 7 mm × 0.525 m tube on 150 × 2 × 2 nodes, BDF2, the band Cholesky), plugs 35 mm long
+//! moving at 0.5 m/s over a settled layer, stepped every 1e-4 s with the pressure gradient
+//! the drag reads after each step: microseconds per exchange, the gas's share of the
+//! horizontal case's coupling.
+//!
+//! cargo bench --bench gas_bench [-- --steps N] [--repeat R] [--model darcy]
 
 use std::time::Instant;
 
-use plugflow::gas::SimpleTubeGas;
+use plugflow::gas::{DarcyGas, DarcyParams, Scheme, SimpleTubeGas, SolvePath};
 use plugflow::Real;
 use plugflow_coupling::drag::DiFelice;
 use plugflow_coupling::{GasSolver, GranularFields, TubeGrid};
@@ -60,9 +66,85 @@ fn fields_at(grid: &TubeGrid, t: Real) -> GranularFields {
     f
 }
 
+/// The horizontal case's granular fields at time t: a settled layer a third of the tube high
+/// (porosity 0.5) and plugs 35 mm long every 0.1 m (porosity 0.45, grains at 0.37 m/s)
+/// moving on at 0.5 m/s; above the layer between plugs, the empty tube (clamped to 0.95).
+fn horizontal_fields_at(grid: &TubeGrid, t: Real) -> GranularFields {
+    const PLUG: Real = 0.035;
+    const SPACING: Real = 0.1;
+    let n = grid.len();
+    let mut f = GranularFields {
+        porosity: vec![1.0; n],
+        velocity: vec![[0.0; 3]; n],
+        ..Default::default()
+    };
+    for k in 0..grid.nz {
+        let s = (k as Real + 0.5) * grid.dz;
+        let in_plug = (s - 0.5 * t).rem_euclid(SPACING) < PLUG;
+        for j in 0..grid.ny {
+            for i in 0..grid.nx {
+                let node = grid.node(k, i, j);
+                (f.porosity[node], f.velocity[node]) = if in_plug {
+                    (0.45, [0.37, 0.0, 0.0])
+                } else if j == 0 {
+                    (0.5, [0.0; 3])
+                } else {
+                    (1.0, [0.0; 3])
+                };
+            }
+        }
+    }
+    f
+}
+
+/// The d'Arcy gas on the horizontal case's grid: µs per exchange (a gas step and the
+/// pressure gradient at the nodes), median over the repeats.
+fn darcy(steps: usize, repeat: usize) {
+    const DT: Real = 1e-4;
+    let grid = TubeGrid::new([0.0; 3], [1.0, 0.0, 0.0], 0.0035, 0.525, 150, 2, 2);
+    let params = DarcyParams {
+        p0: 101_325.0,
+        viscosity: 6.73e-5,
+        grain_diameter: 1.4e-3,
+        superficial_velocity: 2.3e-3 / 60.0 / (std::f64::consts::PI * 0.0035 * 0.0035),
+        porosity_min: 0.3,
+        porosity_max: 0.95,
+        scheme: Scheme::Bdf2,
+        path: SolvePath::Monolithic,
+    };
+    let fields: Vec<GranularFields> = (0..steps)
+        .map(|s| horizontal_fields_at(&grid, s as Real * DT))
+        .collect();
+    let mut per_step = Vec::new();
+    let mut fingerprint = 0u64;
+    for _ in 0..repeat {
+        let mut gas = DarcyGas::new(grid.clone(), params);
+        let start = Instant::now();
+        for f in &fields {
+            gas.step(f, DT).expect("gas step");
+            let grad = gas.pressure_gradient();
+            fingerprint = fingerprint.rotate_left(1) ^ grad[grad.len() / 2][0].to_bits();
+        }
+        per_step.push(start.elapsed().as_secs_f64() / steps as f64);
+        fingerprint ^= gas
+            .pressure()
+            .iter()
+            .fold(0u64, |h, p| h.rotate_left(3) ^ p.to_bits());
+    }
+    per_step.sort_by(f64::total_cmp);
+    println!(
+        "darcy gas, 150×2×2 nodes (horizontal case): {:.2} µs per exchange (median of \
+         {repeat}; step + pressure gradient), fingerprint {fingerprint:016x}",
+        1e6 * per_step[repeat / 2],
+    );
+}
+
 fn main() {
     let steps = flag::<usize>("--steps").unwrap_or(100).max(1);
     let repeat = flag::<usize>("--repeat").unwrap_or(3).max(1);
+    if flag::<String>("--model").as_deref() == Some("darcy") {
+        return darcy(steps, repeat);
+    }
     let mut grid = TubeGrid::new(
         [0.0; 3],
         [1.0, 0.0, 0.0],

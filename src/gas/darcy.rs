@@ -124,6 +124,8 @@ pub struct DarcyGas {
     /// The band factorisation, when the grid's system is narrow (a tube's: half-bandwidth
     /// one cross-section); the general sparse one otherwise.
     band: Option<BandCholesky>,
+    /// Where each entry of [`DarcyGas::entries`] sits in the band (found on the first step).
+    band_slots: Vec<usize>,
     /// The system matrix of the last step, and where each entry of [`DarcyGas::entries`]
     /// sits in its values: the pattern never changes, so later steps write the values in
     /// place instead of assembling (sorting) triplets again.
@@ -219,6 +221,7 @@ impl DarcyGas {
             source: vec![0.0; n],
             symbolic: None,
             band: (half_bandwidth <= BAND_MAX).then(|| BandCholesky::new(n, half_bandwidth)),
+            band_slots: Vec::new(),
             matrix: None,
             steps: 0,
             // The empty tube's gradient for the target flow: the controller's first guess.
@@ -410,17 +413,28 @@ impl DarcyGas {
         let values = self.entries(diag, w);
         // (Taken out while in use, so that the grid's entries and residual can be read.)
         if let Some(mut band) = self.band.take() {
-            let solved = band
-                .set(self.entry_positions().zip(values.iter().copied()))
-                .and_then(|_| band.factor())
-                .map(|_| {
-                    let mut x = rhs.to_vec();
-                    band.solve_in_place(&mut x);
-                    // One step of iterative refinement, as below.
-                    let mut residual = self.residual(diag, w, rhs, &x);
-                    band.solve_in_place(&mut residual);
-                    (0..n).map(|i| x[i] + residual[i]).collect()
-                });
+            if self.band_slots.is_empty() {
+                let slots: Result<Vec<usize>, String> = self
+                    .entry_positions()
+                    .map(|(i, j)| band.slot(i, j))
+                    .collect();
+                match slots {
+                    Ok(slots) => self.band_slots = slots,
+                    Err(e) => {
+                        self.band = Some(band);
+                        return Err(e);
+                    }
+                }
+            }
+            band.set_at(&self.band_slots, &values);
+            let solved = band.factor().map(|_| {
+                let mut x = rhs.to_vec();
+                band.solve_in_place(&mut x);
+                // One step of iterative refinement, as below.
+                let mut residual = self.residual(diag, w, rhs, &x);
+                band.solve_in_place(&mut residual);
+                (0..n).map(|i| x[i] + residual[i]).collect()
+            });
             self.band = Some(band);
             return solved;
         }
