@@ -306,6 +306,25 @@ impl CellGrid {
     fn count(&self) -> usize {
         self.dims.iter().product()
     }
+
+    /// The cells [from, to) whose starts a build reads (as `cell_start[from..=to]`) for
+    /// grains in `cells`: every cell of the slices (fixed slowest coordinate) that hold a
+    /// grain and of the slice on each side, the neighbours' reach. A box wrapping along
+    /// its slowest direction reads across the seam: all cells.
+    fn cells_read(&self, cells: &[u32]) -> (usize, usize) {
+        let all = self.count();
+        if self.wrap[2].is_some() {
+            return (0, all);
+        }
+        let plane = self.dims[0] * self.dims[1];
+        let Some(lowest) = cells.iter().min() else {
+            return (0, 0);
+        };
+        let highest = cells.iter().max().expect("not empty");
+        let first_slice = (*lowest as usize / plane).saturating_sub(1);
+        let last_slice = *highest as usize / plane + 1;
+        (first_slice * plane, ((last_slice + 1) * plane).min(all))
+    }
 }
 
 /// Half neighbour list in compressed rows, with one shear history per pair.
@@ -469,21 +488,28 @@ impl NeighborList {
                 }
             });
         }
-        // 2. Counting sort of the grains by cell (stable, hence deterministic).
-        let nc = grid.count();
-        self.cell_start.clear();
-        self.cell_start.resize(nc + 1, 0);
-        for &c in &self.cell {
-            self.cell_start[c as usize + 1] += 1;
+        // 2. Counting sort of the grains by cell (stable, hence deterministic), over the
+        // cells the build reads only: those of the slices holding grains and one slice
+        // each side (a long pipe filling from its inlet pays for its grains, not for a
+        // million empty cells cleared and summed at every build). The rest of `cell_start`
+        // is stale and never read.
+        let (from, to) = grid.cells_read(&self.cell);
+        if self.cell_start.len() < to + 1 {
+            self.cell_start.resize(to + 1, 0);
         }
-        for c in 0..nc {
-            self.cell_start[c + 1] += self.cell_start[c];
+        let starts = &mut self.cell_start[from..=to];
+        starts.fill(0);
+        for &c in &self.cell {
+            starts[c as usize + 1 - from] += 1;
+        }
+        for c in 0..to - from {
+            starts[c + 1] += starts[c];
         }
         self.fill.clear();
-        self.fill.extend_from_slice(&self.cell_start[..nc]);
+        self.fill.extend_from_slice(&starts[..to - from]);
         self.order.resize(n, 0);
         for (i, &c) in self.cell.iter().enumerate() {
-            let slot = &mut self.fill[c as usize];
+            let slot = &mut self.fill[c as usize - from];
             self.order[*slot as usize] = i;
             *slot += 1;
         }
@@ -791,6 +817,60 @@ mod tests {
         brute.sort_unstable();
         assert!(brute.len() > 100, "{} pairs", brute.len());
         assert_eq!(listed, brute);
+    }
+
+    /// A long pipe holding grains in a few places reads (and sorts over) the cells around
+    /// them only, and still lists every pair within reach, build after build, however the
+    /// grains move between builds (the starts left from the previous build are stale there):
+    /// against all pairs by brute force, with grains in the first and the last slice too.
+    #[test]
+    fn a_sparse_long_box_sorts_over_its_occupied_slices_and_misses_no_pair() {
+        let (l, skin, d) = ([1.0, 0.01, 0.01], 2e-4, 2e-3);
+        let grid = CellGrid::new([0.0; 3], l, d + skin);
+        let mut rng = Rng::new(11);
+        let mut list = NeighborList::default();
+        // (The second build holds fewer grains, and its lowest cluster sits just above the
+        // first one's middle cluster: a start left from the first build and read by mistake
+        // would point past the grains.)
+        let builds = [(600u64, [0.0, 0.31, 0.97]), (300, [0.33, 0.6, 0.998])];
+        for (round, (grains, clusters)) in builds.iter().enumerate() {
+            let mut s = ParticleState::default();
+            for id in 0..*grains {
+                let at = clusters[id as usize % 3];
+                let x = [
+                    (at + 0.02 * rng.uniform()).min(l[0]),
+                    l[1] * rng.uniform(),
+                    l[2] * rng.uniform(),
+                ];
+                s.push(id, x, [0.0; 3], 0.5 * d, 1000.0, 0);
+            }
+            list.rebuild(&mut s, &grid, skin, &[], false, &Team::new(1));
+            let (from, to) = grid.cells_read(&list.cell);
+            assert!(
+                to - from < grid.count(),
+                "round {round}: cells {from}..{to} of {}",
+                grid.count()
+            );
+            let mut listed = Vec::new();
+            for i in 0..s.len() {
+                for k in list.start[i] as usize..list.start[i + 1] as usize {
+                    let j = list.partner[k] as usize;
+                    listed.push((s.id[i].min(s.id[j]), s.id[i].max(s.id[j])));
+                }
+            }
+            listed.sort_unstable();
+            let mut brute = Vec::new();
+            for i in 0..s.len() {
+                for j in i + 1..s.len() {
+                    if norm2(sub(s.position[j], s.position[i])) < (d + skin) * (d + skin) {
+                        brute.push((s.id[i].min(s.id[j]), s.id[i].max(s.id[j])));
+                    }
+                }
+            }
+            brute.sort_unstable();
+            assert!(brute.len() > 100, "round {round}: {} pairs", brute.len());
+            assert_eq!(listed, brute, "round {round}");
+        }
     }
 
     #[test]
