@@ -356,9 +356,12 @@ pub struct ContactSpec {
     /// normal damping coefficient (η_t = η_n as in seed 004); `history`: the shear spring's
     /// dashpot, default the normal law's damping ratio on k_t (0: none, LAMMPS's dampflag 0).
     pub tangential_damping: Option<Q<Damping>>,
-    /// Grain–wall friction. Default: `friction`.
+    /// Grain–wall friction: the pair's coefficient, as LIGGGHTS's `coefficientFriction`
+    /// holds it for the grain and wall types. (A code that gives the wall a value of its own
+    /// combines it with the grain's: Lethe takes the harmonic mean 2 μ_p μ_w/(μ_p + μ_w).)
+    /// Default: `friction`.
     pub wall_friction: Option<Finite>,
-    /// Grain–wall restitution. Default: `restitution`.
+    /// Grain–wall restitution (the pair's, as `wall_friction`). Default: `restitution`.
     pub wall_restitution: Option<Finite>,
     /// Rolling resistance: `none` (default) or `constant_torque`.
     #[serde(default)]
