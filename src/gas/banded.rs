@@ -58,8 +58,7 @@ impl BandCholesky {
     }
 
     /// Set the matrix from its lower triangle's values at the slots [`BandCholesky::slot`]
-    /// gave (each slot at most once; the rest is zero): what [`BandCholesky::set`] does
-    /// without finding each entry's place again.
+    /// gave (each slot at most once; the rest is zero).
     pub fn set_at(&mut self, slots: &[usize], values: &[Real]) {
         self.band.iter_mut().for_each(|v| *v = 0.0);
         for (&k, &v) in slots.iter().zip(values) {
