@@ -31,6 +31,15 @@ const CELLS: [usize; 3] = [90, 8, 8];
 /// The gas step (Lethe's CFD step), s.
 const DT: Real = 5e-4;
 
+/// The empty tube's fields over n nodes: porosity 1, grains at rest.
+fn empty_fields(n: usize) -> GranularFields {
+    GranularFields {
+        porosity: vec![1.0; n],
+        velocity: vec![[0.0; 3]; n],
+        ..Default::default()
+    }
+}
+
 /// The granular fields at time t: a resting layer below `LAYER` m from the bottom and a slug
 /// of `SLUG` m centred at s = 0.5 + 1.3 t (periodic), both at the loose packing's porosity,
 /// with smooth (tanh) ends a grain wide; the slug's grains move along the axis.
@@ -40,11 +49,7 @@ fn fields_at(grid: &TubeGrid, t: Real) -> GranularFields {
     const PACKED: Real = 0.42;
     const D: Real = 0.005;
     let n = grid.len();
-    let mut f = GranularFields {
-        porosity: vec![1.0; n],
-        velocity: vec![[0.0; 3]; n],
-        ..Default::default()
-    };
+    let mut f = empty_fields(n);
     let centre = (0.5 + 1.3 * t).rem_euclid(LENGTH);
     for k in 0..grid.nz {
         let s = (k as Real + 0.5) * grid.dz;
@@ -73,11 +78,7 @@ fn horizontal_fields_at(grid: &TubeGrid, t: Real) -> GranularFields {
     const PLUG: Real = 0.035;
     const SPACING: Real = 0.1;
     let n = grid.len();
-    let mut f = GranularFields {
-        porosity: vec![1.0; n],
-        velocity: vec![[0.0; 3]; n],
-        ..Default::default()
-    };
+    let mut f = empty_fields(n);
     for k in 0..grid.nz {
         let s = (k as Real + 0.5) * grid.dz;
         let in_plug = (s - 0.5 * t).rem_euclid(SPACING) < PLUG;

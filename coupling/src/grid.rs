@@ -533,6 +533,18 @@ pub fn interpolate_vec3(stencil: &Stencil, field: &[Vec3]) -> Vec3 {
 mod tests {
     use super::*;
 
+    /// A reproducible stream of uniform numbers in [0, 1) (a 64-bit LCG's top 53 bits), so
+    /// the tests draw the same points on every machine without the model crate's Rng.
+    fn uniform_stream(seed: u64) -> impl FnMut() -> Real {
+        let mut state = seed;
+        move || {
+            state = state
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            (state >> 11) as Real / (1u64 << 53) as Real
+        }
+    }
+
     fn paper_grid() -> TubeGrid {
         TubeGrid::new([0.0; 3], [0.0, 0.0, 1.0], 3.5e-3, 0.525, 150, 2, 2)
     }
@@ -739,13 +751,7 @@ mod tests {
             periodic,
             TubeGrid::new([1.0, 2.0, 3.0], [0.0, 1.0, 0.0], 2.0e-3, 0.2, 40, 1, 4),
         ];
-        let mut rng = 99u64;
-        let mut next = || {
-            rng = rng
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            (rng >> 11) as Real / (1u64 << 53) as Real
-        };
+        let mut next = uniform_stream(99);
         for (gi, g) in grids.iter().enumerate() {
             // Points over the tube's square and 10 % beyond each end (clamped or wrapped),
             // and the grid's node and cell-edge positions exactly.
@@ -832,13 +838,7 @@ mod tests {
     #[test]
     fn a_deposit_in_ranges_matches_the_whole() {
         let g = paper_grid();
-        let mut rng = 12345u64;
-        let mut next = || {
-            rng = rng
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            (rng >> 11) as Real / (1u64 << 53) as Real
-        };
+        let mut next = uniform_stream(12345);
         let n = 3000;
         let x: Vec<Vec3> = (0..n)
             .map(|_| {
