@@ -6,7 +6,7 @@ use crate::dem::config::{
     open_cross_section, DemConfig, GivenGrain, InitialConfig, InletConfig, LawSet, RollingSet,
     TangentialChoice, TangentialSet, TimeStepReport, TubeGeometry,
 };
-use crate::dem::contact::{ConstantTorque, Hertz, Hooke, RollingPair};
+use crate::dem::contact::{ConstantTorque, Hertz, Hooke, RollingPair, TorqueReading};
 use crate::dem::placement::{perpendicular_basis, Region};
 use crate::dem::vec3::{add, dot, norm, normalized, scale, sub};
 use crate::dem::walls::{Wall, WallShape};
@@ -150,12 +150,17 @@ fn rolling_law(scene: &Scene) -> RollingSet {
     let c = &scene.file.contact;
     match c.rolling {
         RollingLawName::None => RollingSet::None,
-        RollingLawName::ConstantTorque => {
+        RollingLawName::ConstantTorque | RollingLawName::ConstantResistance => {
+            let reading = if c.rolling == RollingLawName::ConstantTorque {
+                TorqueReading::ElasticNoTwist
+            } else {
+                TorqueReading::WholeForceAndRotation
+            };
             let pp = c.rolling_friction.map(|m| m.0).unwrap_or(0.0);
             let pw = c.wall_rolling_friction.map(|m| m.0).unwrap_or(pp);
             RollingSet::ConstantTorque(RollingPair {
-                pp: ConstantTorque { mu_r: pp },
-                pw: ConstantTorque { mu_r: pw },
+                pp: ConstantTorque { mu_r: pp, reading },
+                pw: ConstantTorque { mu_r: pw, reading },
             })
         }
     }

@@ -2,6 +2,7 @@
 //! scene this mapping cannot express exactly is refused with the field and the reason.
 
 use plugflow_model::dem::config::{InitialConfig, InletMode, LawSet, RollingSet, TangentialSet};
+use plugflow_model::dem::contact::TorqueReading;
 use plugflow_model::dem::external::{
     beta_form_restitution, linear_pairs, single_grain_mass, LinearPair,
 };
@@ -264,6 +265,14 @@ pub fn map(scene: &Scene, cfg: &DemConfig) -> Result<Mapped, Refusal> {
     let model = match &cfg.rolling {
         RollingSet::None => model,
         RollingSet::ConstantTorque(r) => {
+            if r.pp.reading != TorqueReading::ElasticNoTwist {
+                return Err(refuse(
+                    "contact.rolling",
+                    "`constant_resistance` (Lethe's reading: the whole normal force, twist \
+                     resisted) is not LIGGGHTS's `cdt` (the elastic force, twist not \
+                     resisted); use `constant_torque` or dem.engine = \"native\"",
+                ));
+            }
             push(matrix("coefficientRollingFriction", r.pp.mu_r, r.pw.mu_r));
             format!("{model} rolling_friction cdt")
         }

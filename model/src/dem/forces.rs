@@ -631,7 +631,7 @@ fn pair_lanes<N: NormalLaw, T: TangentialLaw, R: RollingLaw, S: Sizes>(
             w_rel = sub(wi, wj);
         }
     }
-    let (f, arm, elastic) = respond(
+    let (f, arm, (elastic, normal)) = respond(
         &laws.pp_normal,
         &laws.pp_tangential,
         set.dt,
@@ -642,7 +642,7 @@ fn pair_lanes<N: NormalLaw, T: TangentialLaw, R: RollingLaw, S: Sizes>(
         shear,
     );
     let roll = if R::ACTIVE {
-        inputs.rolling.pp.torque(elastic, r_eff, w_rel, n)
+        inputs.rolling.pp.torque(elastic, normal, r_eff, w_rel, n)
     } else {
         [Lanes::splat(0.0); 3]
     };
@@ -674,7 +674,7 @@ fn wall_lanes<N: NormalLaw, T: TangentialLaw, R: RollingLaw, S: Sizes>(
             w_rel = wi;
         }
     }
-    let (f, arm, elastic) = respond(
+    let (f, arm, (elastic, normal)) = respond(
         &laws.pw_normal,
         &laws.wall_tangential[w],
         set.dt,
@@ -685,7 +685,7 @@ fn wall_lanes<N: NormalLaw, T: TangentialLaw, R: RollingLaw, S: Sizes>(
         shear,
     );
     let roll = if R::ACTIVE {
-        inputs.rolling.pw.torque(elastic, ri, w_rel, n)
+        inputs.rolling.pw.torque(elastic, normal, ri, w_rel, n)
     } else {
         [Lanes::splat(0.0); 3]
     };
@@ -694,7 +694,7 @@ fn wall_lanes<N: NormalLaw, T: TangentialLaw, R: RollingLaw, S: Sizes>(
 
 /// Normal and tangential law of one contact group: `vrel` the contact point's velocity of
 /// grain i relative to its partner, `n` from i to the partner; returns (force on i, n × F_t,
-/// the elastic normal force).
+/// the normal force's elastic part and whole, N).
 #[allow(clippy::too_many_arguments)]
 #[inline(always)]
 fn respond<N: NormalLaw, T: TangentialLaw>(
@@ -706,7 +706,7 @@ fn respond<N: NormalLaw, T: TangentialLaw>(
     n: [Lanes; 3],
     vrel: [Lanes; 3],
     shear: &mut [Lanes; 3],
-) -> ([Lanes; 3], [Lanes; 3], Lanes) {
+) -> ([Lanes; 3], [Lanes; 3], (Lanes, Lanes)) {
     let vn = dot(vrel, n);
     let vt = sub(vrel, scale(n, vn));
     let normal = normal_law.evaluate(sqrt_m_eff, r_eff, overlap, vn);
@@ -714,14 +714,14 @@ fn respond<N: NormalLaw, T: TangentialLaw>(
     (
         sub(ft, scale(n, normal.force)),
         cross(n, ft),
-        normal.elastic,
+        (normal.elastic, normal.force),
     )
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::dem::contact::{ConstantTorque, Hertz, History, NoRolling};
+    use crate::dem::contact::{ConstantTorque, Hertz, History, NoRolling, TorqueReading};
     use crate::dem::walls::WallShape;
     use crate::rng::Rng;
 
@@ -912,7 +912,7 @@ mod tests {
             (
                 sub(ft, scale(n, normal.force)),
                 cross(n, ft),
-                normal.elastic,
+                (normal.elastic, normal.force),
             )
         };
         for i in 0..n {
@@ -930,7 +930,7 @@ mod tests {
                 let spin: Vec3 = std::array::from_fn(|c| s.r[i] * s.w[i][c] + s.r[j] * s.w[j][c]);
                 let vrel = add(sub(s.v[i], s.v[j]), cross(spin, nrm));
                 let r_eff = s.r[i] * s.r[j] / rs;
-                let (f, arm, elastic) = respond1(
+                let (f, arm, (elastic, normal)) = respond1(
                     &s.laws.pp_normal,
                     &s.laws.pp_tangential,
                     (mi * mj / (mi + mj)).sqrt(),
@@ -942,7 +942,9 @@ mod tests {
                 );
                 let (mut ti, mut tj) = (scale(arm, s.r[i]), scale(arm, s.r[j]));
                 if let Some(roll) = rolling {
-                    let m = roll.pp.torque(elastic, r_eff, sub(s.w[i], s.w[j]), nrm);
+                    let m = roll
+                        .pp
+                        .torque(elastic, normal, r_eff, sub(s.w[i], s.w[j]), nrm);
                     add_assign(&mut ti, m);
                     sub_assign(&mut tj, m);
                 }
@@ -962,7 +964,7 @@ mod tests {
                 };
                 let spin = scale(s.w[i], s.r[i]);
                 let vrel = add(s.v[i], cross(spin, nrm));
-                let (f, arm, elastic) = respond1(
+                let (f, arm, (elastic, normal)) = respond1(
                     &s.laws.pw_normal,
                     &s.laws.wall_tangential[wi],
                     s.m[i].sqrt(),
@@ -974,7 +976,10 @@ mod tests {
                 );
                 let mut ti = scale(arm, s.r[i]);
                 if let Some(roll) = rolling {
-                    add_assign(&mut ti, roll.pw.torque(elastic, s.r[i], s.w[i], nrm));
+                    add_assign(
+                        &mut ti,
+                        roll.pw.torque(elastic, normal, s.r[i], s.w[i], nrm),
+                    );
                 }
                 add_assign(&mut force[i], f);
                 sub_assign(&mut on_wall, f);
@@ -1025,37 +1030,65 @@ mod tests {
 
         // The constant-torque rolling law: the same in lanes as one contact at a time, and
         // it changes only torques (the laws' forces do not read it).
-        let rolling = RollingPair {
-            pp: ConstantTorque { mu_r: 0.1 },
-            pw: ConstantTorque { mu_r: 0.2 },
-        };
-        let expected_rolling = one_contact_at_a_time(&s, Some(&rolling));
-        let got = run(&s, &rolling, chunk_forces, None);
-        assert_eq!(bits(&got), bits(&expected_rolling), "rolling, in lanes");
-        assert_eq!(got.0, expected.0, "forces do not depend on the rolling law");
-        assert_ne!(got.1, expected.1, "the rolling law adds torques");
+        // Both readings (LIGGGHTS's and Lethe's).
+        let mut torques = Vec::new();
+        for reading in [
+            TorqueReading::ElasticNoTwist,
+            TorqueReading::WholeForceAndRotation,
+        ] {
+            let rolling = RollingPair {
+                pp: ConstantTorque { mu_r: 0.1, reading },
+                pw: ConstantTorque { mu_r: 0.2, reading },
+            };
+            let expected_rolling = one_contact_at_a_time(&s, Some(&rolling));
+            let got = run(&s, &rolling, chunk_forces, None);
+            assert_eq!(bits(&got), bits(&expected_rolling), "{reading:?}, in lanes");
+            assert_eq!(got.0, expected.0, "forces do not depend on the rolling law");
+            assert_ne!(got.1, expected.1, "the rolling law adds torques");
+            torques.push(got.1);
+        }
+        assert_ne!(torques[0], torques[1], "the readings differ on this scene");
     }
 
-    /// The constant-torque law on one contact against its formula: μ_r R* F_el against the
-    /// relative rotation, less its part along n; none for pure twisting or no rotation, none
-    /// for a negative elastic force.
+    /// The constant-torque law on one contact against its formula. LIGGGHTS's reading:
+    /// μ_r R* F_el against the relative rotation, less its part along n; none for pure
+    /// twisting or no rotation, none for a negative elastic force. Lethe's: μ_r R* |F_n|
+    /// against the whole relative rotation (twist too), F_n the whole normal force.
     #[test]
     fn constant_torque_opposes_relative_rolling() {
-        let law = ConstantTorque { mu_r: 0.3 };
+        let law = ConstantTorque {
+            mu_r: 0.3,
+            reading: TorqueReading::ElasticNoTwist,
+        };
         let n = [0.0, 0.0, 1.0];
         let close = |m: Vec3, e: Vec3| (0..3).all(|c| (m[c] - e[c]).abs() < 1e-18);
-        // Pure rolling: μ_r R* F against ω.
-        let m = law.torque(2.0, 0.5e-3, [3.0, 4.0, 0.0], n);
+        // Pure rolling: μ_r R* F_el against ω (the whole force 2.5 N not read).
+        let m = law.torque(2.0, 2.5, 0.5e-3, [3.0, 4.0, 0.0], n);
         assert!(close(m, [-0.3e-3 * 0.6, -0.3e-3 * 0.8, 0.0]), "{m:?}");
         // Rolling and twisting: normalised by |ω|, the twist's part removed (LIGGGHTS).
-        let m = law.torque(2.0, 0.5e-3, [3.0, 0.0, 4.0], n);
+        let m = law.torque(2.0, 2.5, 0.5e-3, [3.0, 0.0, 4.0], n);
         assert!(close(m, [-0.3e-3 * 0.6, 0.0, 0.0]), "{m:?}");
-        assert_eq!(law.torque(2.0, 0.5e-3, [0.0, 0.0, 9.0], n), [0.0; 3]);
-        assert_eq!(law.torque(2.0, 0.5e-3, [0.0; 3], n), [0.0; 3]);
+        assert_eq!(law.torque(2.0, 2.5, 0.5e-3, [0.0, 0.0, 9.0], n), [0.0; 3]);
+        assert_eq!(law.torque(2.0, 2.5, 0.5e-3, [0.0; 3], n), [0.0; 3]);
         assert_eq!(
-            law.torque(-1.0, 0.5e-3, [1.0, 0.0, 0.0], n),
+            law.torque(-1.0, 2.5, 0.5e-3, [1.0, 0.0, 0.0], n),
             [-0.0, 0.0, 0.0]
         );
+
+        let lethe = ConstantTorque {
+            mu_r: 0.3,
+            reading: TorqueReading::WholeForceAndRotation,
+        };
+        // Pure rolling: μ_r R* |F_n| = 0.3 × 0.5e-3 × 2.5 against ω.
+        let m = lethe.torque(2.0, 2.5, 0.5e-3, [3.0, 4.0, 0.0], n);
+        assert!(close(m, [-0.375e-3 * 0.6, -0.375e-3 * 0.8, 0.0]), "{m:?}");
+        // Rolling and twisting: the whole rotation resisted, twist included.
+        let m = lethe.torque(2.0, 2.5, 0.5e-3, [3.0, 0.0, 4.0], n);
+        assert!(close(m, [-0.375e-3 * 0.6, 0.0, -0.375e-3 * 0.8]), "{m:?}");
+        // A damped contact pulling at its end (F_n = −1 N): |F_n| still resists.
+        let m = lethe.torque(0.5, -1.0, 0.5e-3, [0.0, 2.0, 0.0], n);
+        assert!(close(m, [0.0, -0.15e-3, 0.0]), "{m:?}");
+        assert_eq!(lethe.torque(2.0, 2.5, 0.5e-3, [0.0; 3], n), [0.0; 3]);
     }
 
     /// Grains all alike take the constant path ([`UniformPair`]): the same forces as each

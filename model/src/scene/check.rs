@@ -245,11 +245,18 @@ fn check_rolling(f: &SceneFile) -> Result<(), SceneError> {
                 }
             }
         }
-        RollingLawName::ConstantTorque => {
+        RollingLawName::ConstantTorque | RollingLawName::ConstantResistance => {
             let mu = c.rolling_friction.ok_or_else(|| {
                 field_err(
                     "contact.rolling_friction",
-                    "missing: the constant_torque law needs μ_r",
+                    format!(
+                        "missing: the {} law needs μ_r",
+                        if c.rolling == RollingLawName::ConstantTorque {
+                            "constant_torque"
+                        } else {
+                            "constant_resistance"
+                        }
+                    ),
                 )
             })?;
             for (m, name) in [

@@ -324,9 +324,12 @@ pub enum RollingLawName {
     /// Free rolling: no torque but the tangential force's (the default).
     #[default]
     None,
-    /// Constant directional torque μ_r R* F_n against the relative rolling (LIGGGHTS's
-    /// `rolling_friction cdt`, Lethe's `constant_resistance`).
+    /// Constant directional torque μ_r R* F_n,el against the relative rolling, as LIGGGHTS's
+    /// `rolling_friction cdt` reads it: the elastic normal force, twisting not resisted.
     ConstantTorque,
+    /// The same torque as Lethe's `constant_resistance` reads it: μ_r R* |F_n| with the
+    /// whole normal force, against the whole relative rotation (twist included).
+    ConstantResistance,
 }
 
 /// Contact parameters.
@@ -363,12 +366,14 @@ pub struct ContactSpec {
     pub wall_friction: Option<Finite>,
     /// Grain–wall restitution (the pair's, as `wall_friction`). Default: `restitution`.
     pub wall_restitution: Option<Finite>,
-    /// Rolling resistance: `none` (default) or `constant_torque`.
+    /// Rolling resistance: `none` (default), `constant_torque` (LIGGGHTS's `cdt`) or
+    /// `constant_resistance` (Lethe's reading of the same law).
     #[serde(default)]
     pub rolling: RollingLawName,
-    /// `constant_torque`: coefficient of rolling friction μ_r ≥ 0, grain–grain.
+    /// `constant_torque`, `constant_resistance`: coefficient of rolling friction μ_r ≥ 0,
+    /// grain–grain.
     pub rolling_friction: Option<Finite>,
-    /// `constant_torque`: grain–wall μ_r. Default: `rolling_friction`.
+    /// `constant_torque`, `constant_resistance`: grain–wall μ_r. Default: `rolling_friction`.
     pub wall_rolling_friction: Option<Finite>,
 }
 

@@ -11,7 +11,7 @@ pub mod history;
 pub mod hooke;
 pub mod liggghts_history;
 
-pub use constant_torque::ConstantTorque;
+pub use constant_torque::{ConstantTorque, TorqueReading};
 pub use coulomb_viscous::CoulombViscous;
 pub use hertz::Hertz;
 pub use history::History;
@@ -73,10 +73,17 @@ pub trait TangentialLaw: Clone + Send + Sync {
 pub trait RollingLaw: Clone + Send + Sync {
     /// False for [`NoRolling`]: the force loop then neither computes nor adds a torque.
     const ACTIVE: bool;
-    /// Torque on grain i, N·m, from the pair's elastic normal force (N), effective radius
-    /// R* (m), relative angular velocity ω_i − ω_j (rad/s) and unit normal `n` (i → partner).
-    /// Its partner takes the opposite torque.
-    fn torque<T: Num>(&self, elastic_force: T, r_eff: T, w_rel: [T; 3], n: [T; 3]) -> [T; 3];
+    /// Torque on grain i, N·m, from the pair's normal force (its elastic part and the whole,
+    /// N, repulsive positive), effective radius R* (m), relative angular velocity ω_i − ω_j
+    /// (rad/s) and unit normal `n` (i → partner). Its partner takes the opposite torque.
+    fn torque<T: Num>(
+        &self,
+        elastic_force: T,
+        normal_force: T,
+        r_eff: T,
+        w_rel: [T; 3],
+        n: [T; 3],
+    ) -> [T; 3];
 }
 
 /// No rolling resistance (the default): grains roll freely but for their tangential forces.
@@ -86,7 +93,7 @@ pub struct NoRolling;
 impl RollingLaw for NoRolling {
     const ACTIVE: bool = false;
     #[inline(always)]
-    fn torque<T: Num>(&self, _: T, _: T, _: [T; 3], _: [T; 3]) -> [T; 3] {
+    fn torque<T: Num>(&self, _: T, _: T, _: T, _: [T; 3], _: [T; 3]) -> [T; 3] {
         [T::splat(0.0); 3]
     }
 }
