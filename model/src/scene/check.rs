@@ -249,14 +249,7 @@ fn check_rolling(f: &SceneFile) -> Result<(), SceneError> {
             let mu = c.rolling_friction.ok_or_else(|| {
                 field_err(
                     "contact.rolling_friction",
-                    format!(
-                        "missing: the {} law needs μ_r",
-                        if c.rolling == RollingLawName::ConstantTorque {
-                            "constant_torque"
-                        } else {
-                            "constant_resistance"
-                        }
-                    ),
+                    format!("missing: the {} law needs μ_r", c.rolling.scene_name()),
                 )
             })?;
             for (m, name) in [

@@ -332,6 +332,17 @@ pub enum RollingLawName {
     ConstantResistance,
 }
 
+impl RollingLawName {
+    /// The name a scene file gives the law (`contact.rolling`).
+    pub fn scene_name(self) -> &'static str {
+        match self {
+            RollingLawName::None => "none",
+            RollingLawName::ConstantTorque => "constant_torque",
+            RollingLawName::ConstantResistance => "constant_resistance",
+        }
+    }
+}
+
 /// Contact parameters.
 #[derive(Debug, Clone, Deserialize)]
 #[serde(deny_unknown_fields)]
