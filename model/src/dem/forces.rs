@@ -4,7 +4,7 @@
 //! LIGGGHTS comes from (`cargo bench --bench dem_bench`).
 //!
 //! Threads split the grains into contiguous index ranges; a thread owns the force entries of
-//! its range, and a pair whose partner j lies in a later range sends j's share to a spill list.
+//! its range, and a pair whose partner j lies in another range sends j's share to a spill list.
 //! The integration pass that follows adds the spills, each chunk those of its own grains, in
 //! chunk order and list order, so a run is bitwise reproducible for a given thread count.
 
@@ -471,7 +471,7 @@ fn pair_contacts<N: NormalLaw, T: TangentialLaw, R: RollingLaw, S: Sizes>(
             } else {
                 [0.0; 3]
             };
-            if j < hi {
+            if (lo..hi).contains(&j) {
                 sub_assign(&mut out.force[j - lo], f);
                 if set.rotation {
                     add_assign(&mut out.torque[j - lo], tj);

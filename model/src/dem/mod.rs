@@ -1,7 +1,8 @@
 //! The built-in DEM: soft spheres, velocity-Verlet, cell list with Verlet skin.
 //!
 //! One step (see [`NativeDem::advance`]): half kick + drift → neighbour rebuild when the two
-//! largest drifts since the last one add up to the skin (or grains were added/removed) →
+//! largest drifts since the last one add up to the skin (or only the far-drifted few listed
+//! again, [`NativeDem::refresh`]; fed grains join the list without one) →
 //! forces → half kick. Every few steps
 //! the inlet feeds a batch and grains past an open end leave. Each stage is timed.
 
@@ -55,6 +56,14 @@ const MIN_GRAINS_PER_CHUNK: usize = 256;
 
 /// How often (in steps) the inlet and the open ends are looked at.
 const FEED_STRIDE: u64 = 10;
+
+/// A grain that drifted more than this share of the skin since its reference is a
+/// "mover" when the drifts call for a neighbour build ([`NativeDem::refresh`]).
+const MOVER_DRIFT_OF_SKIN: Real = 0.25;
+
+/// Movers are listed again in place of a build while they are at most one grain in this
+/// many (more, and the build's sorted rows pay for themselves).
+const MOVER_SHARE: usize = 8;
 
 /// Counters of what entered and left the domain.
 #[derive(Debug, Clone, Default, serde::Serialize, serde::Deserialize)]
@@ -317,6 +326,43 @@ impl NativeDem {
         self.cut_chunks();
     }
 
+    /// In place of a build when the drifts call for one: the grains that drifted more than
+    /// a quarter of the skin listed again, if they are few
+    /// ([`NeighborList::refresh_movers`]), with the outlet's list and the threads' chunks
+    /// made to fit. False: a build is needed.
+    fn refresh(&mut self, team: &Team) -> bool {
+        let cfg = &self.cfg;
+        if self
+            .nlist
+            .refresh_movers(
+                &mut self.state,
+                &self.grid,
+                cfg.skin,
+                cfg.radius_max,
+                &cfg.walls,
+                MOVER_DRIFT_OF_SKIN * cfg.skin,
+                MOVER_SHARE,
+                team,
+            )
+            .is_none()
+        {
+            return false;
+        }
+        if cfg.inlet.is_some() || cfg.removes_grains {
+            // As a build sets it, from the reference positions (the others' are their
+            // build's, the movers' where they are now).
+            let (reference, r) = (self.nlist.reference_positions(), &self.state.radius);
+            self.may_leave.clear();
+            self.may_leave.extend(
+                (0..reference.len())
+                    .filter(|&i| leave_margin(cfg, reference[i], r[i]) <= cfg.skin)
+                    .map(|i| i as u32),
+            );
+        }
+        self.cut_chunks();
+        true
+    }
+
     /// The threads' chunks of the grains, cut by the list's work per grain.
     fn cut_chunks(&mut self) {
         let n = self.state.len();
@@ -330,10 +376,12 @@ impl NativeDem {
     }
 
     /// Feed the grains the inlet owes (see [`Feeder::feed`]), or move the conveyor's
-    /// column on (see [`NativeDem::convey`]).
-    fn feed(&mut self, elapsed: Real) {
+    /// column on (see [`NativeDem::convey`]). `max_drift`: the largest drift of any grain
+    /// since its reference position (m) when no build is due before the next force pass;
+    /// the fed grains then join the list without one ([`NeighborList::append`]).
+    fn feed(&mut self, elapsed: Real, max_drift: Option<Real>) {
         if self.conveyor.is_some() {
-            self.convey(elapsed);
+            self.convey(elapsed, max_drift);
             return;
         }
         let placed = self.feeder.feed(
@@ -350,9 +398,8 @@ impl NativeDem {
         if placed.is_empty() {
             return;
         }
-        if self.cfg.laws.uses_history() {
-            self.nlist.stash_history(&self.state);
-        }
+        let append = self.before_adding(max_drift);
+        let first = self.state.len();
         let v = Feeder::velocity(&self.cfg);
         let nw = self.cfg.walls.len();
         for (x, r) in placed {
@@ -362,7 +409,59 @@ impl NativeDem {
             self.flow.fed_count += 1;
             self.flow.fed_mass += *self.state.mass.last().expect("just pushed");
         }
-        self.rebuild_pending = true;
+        self.after_adding(first, append);
+    }
+
+    /// Before grains are pushed: the drift to append them with, when the list can take
+    /// them without a build; otherwise the histories saved for the build that will.
+    fn before_adding(&mut self, max_drift: Option<Real>) -> Option<Real> {
+        let append = max_drift.filter(|_| self.nlist.can_append(self.state.len(), &self.grid));
+        if append.is_none() && self.cfg.laws.uses_history() {
+            self.nlist.stash_history(&self.state);
+        }
+        append
+    }
+
+    /// After grains [first, n) were pushed: their rows appended to the list (with what a
+    /// build sets for them: the wall and outlet lists, the dashpot's predicted velocity,
+    /// the threads' chunks), or a build called for.
+    fn after_adding(&mut self, first: usize, append: Option<Real>) {
+        let Some(max_drift) = append else {
+            self.rebuild_pending = true;
+            return;
+        };
+        let cfg = &self.cfg;
+        self.nlist.append(
+            &self.state,
+            first,
+            &self.grid,
+            cfg.skin,
+            cfg.radius_max,
+            &cfg.walls,
+            max_drift,
+        );
+        let n = self.state.len();
+        let s = &self.state;
+        if cfg.inlet.is_some() || cfg.removes_grains {
+            self.may_leave.extend(
+                (first..n)
+                    .filter(|&i| leave_margin(cfg, s.position[i], s.radius[i]) <= cfg.skin)
+                    .map(|i| i as u32),
+            );
+        }
+        // As `predict_velocities(true)` would set them (a new grain has no force yet).
+        let h = 0.5 * cfg.dt;
+        for i in first..n {
+            let a = s.inv_mass[i] * h;
+            let (v, f) = (s.velocity[i], s.force[i]);
+            self.velocity_pred
+                .push([v[0] + f[0] * a, v[1] + f[1] * a, v[2] + f[2] * a]);
+            let b = s.inv_inertia[i] * h;
+            let (w, t) = (s.angular_velocity[i], s.torque[i]);
+            self.angular_velocity_pred
+                .push([w[0] + t[0] * b, w[1] + t[1] * b, w[2] + t[2] * b]);
+        }
+        self.cut_chunks();
     }
 
     /// The conveyor inlet's part of a feed, `elapsed` s after the last: grains of the column
@@ -371,7 +470,7 @@ impl NativeDem {
     /// by the distance they moved; grains of it that came one radius into the tube added,
     /// held. At the first feed the grains already in the slab (a tube filled by another run)
     /// join the column. When the feed stops (`inlet.until`) every held grain is released.
-    fn convey(&mut self, elapsed: Real) {
+    fn convey(&mut self, elapsed: Real, max_drift: Option<Real>) {
         let Some(mut column) = self.conveyor.take() else {
             return;
         };
@@ -395,9 +494,8 @@ impl NativeDem {
             s.release(i);
         }
         if !feed.enter.is_empty() {
-            if self.cfg.laws.uses_history() {
-                self.nlist.stash_history(&self.state);
-            }
+            let append = self.before_adding(max_drift);
+            let first = self.state.len();
             let nw = self.cfg.walls.len();
             for (x, r) in feed.enter {
                 let id = self.next_id;
@@ -410,7 +508,7 @@ impl NativeDem {
                 self.flow.fed_count += 1;
                 self.flow.fed_mass += self.state.mass[last];
             }
-            self.rebuild_pending = true;
+            self.after_adding(first, append);
         }
         self.conveyor = Some(column);
     }
@@ -570,9 +668,11 @@ impl NativeDem {
                     &mut cols.result.range(c, c + 1)[0],
                 )
             };
-            // Shares of this chunk's grains from pairs of earlier chunks, in chunk order
-            // and list order (so the sums do not depend on which thread finished first).
-            for spill in &spills[..c] {
+            // Shares of this chunk's grains from pairs of other chunks (earlier ones for a
+            // build's pairs, j > i; later ones too for appended rows, j < i), in chunk
+            // order and list order (so the sums do not depend on which thread finished
+            // first).
+            for (_, spill) in spills.iter().enumerate().filter(|&(k, _)| k != c) {
                 for sp in spill {
                     let j = sp.j as usize;
                     if (lo..hi).contains(&j) {
@@ -646,7 +746,8 @@ impl NativeDem {
         }
         let t0 = Instant::now();
         let skin = self.cfg.skin;
-        let mut moved_far = self.integrate(team, Phase::KickDrift).moved_far(skin);
+        let mut verdict = self.integrate(team, Phase::KickDrift);
+        let mut moved_far = verdict.moved_far(skin);
         self.timer.add("integrate", t0.elapsed().as_secs_f64());
         for k in 0..steps {
             self.time += dt;
@@ -656,12 +757,17 @@ impl NativeDem {
                 && (self.cfg.inlet.is_some() || self.cfg.removes_grains)
             {
                 self.remove_leaving(!(moved_far || self.rebuild_pending), team);
-                self.feed(FEED_STRIDE as Real * dt);
+                // (No build due: fed grains join the list as they are.)
+                let no_build = !(moved_far || self.rebuild_pending);
+                let max_drift = no_build.then(|| verdict.drift2[0].sqrt());
+                self.feed(FEED_STRIDE as Real * dt, max_drift);
             }
             let t2 = Instant::now();
             self.timer.add("inlet_outlet", (t2 - t1).as_secs_f64());
             if self.rebuild_pending || moved_far {
-                self.rebuild(team);
+                if self.rebuild_pending || !self.refresh(team) {
+                    self.rebuild(team);
+                }
                 self.predict_velocities(true);
             }
             let t3 = Instant::now();
@@ -676,7 +782,7 @@ impl NativeDem {
             } else {
                 Phase::KickKickDrift
             };
-            let verdict = self.integrate(team, phase);
+            verdict = self.integrate(team, phase);
             self.timer.add("integrate", t4.elapsed().as_secs_f64());
             if !verdict.sane {
                 return Err(self.blowup_error());

@@ -2,9 +2,12 @@
 //!
 //! The half list holds every pair (i, j > i) closer than r_i + r_j + skin; it is rebuilt only
 //! when the two largest drifts since the last build add up to more than the skin (until then
-//! no pair can have come into contact unseen: a pair closes by at most its two drifts). At each build the grains are re-sorted by cell so that
-//! neighbours sit close in memory, and the tangential history of every live contact is
-//! carried over by the grains' stable ids.
+//! no pair can have come into contact unseen: a pair closes by at most its two drifts). At
+//! each build the grains are re-sorted by cell so that neighbours sit close in memory, and
+//! the tangential history of every live contact is carried over by the grains' stable ids.
+//! Between builds, fed grains get rows of their own ([`NeighborList::append`]), and in place
+//! of a build the far-drifted few can be listed again ([`NeighborList::refresh_movers`]);
+//! their rows list each pair once, in either orientation.
 //!
 //! Periodic directions (a periodic pipe section, a chute): the cells wrap around, and a pair
 //! found across the seam keeps the image shift of its partner (`offset`, m) until the next
@@ -21,6 +24,12 @@ use crate::{Real, Vec3};
 
 /// Fewest rows per member worth sharing a build (below, the sync costs more than it saves).
 pub const MIN_ROWS_PER_MEMBER: usize = 256;
+
+/// Weights of a grain's work per step in units of one pair test (see [`RowScratch::build`]).
+const PAIR: u64 = 1;
+const CONTACT: u64 = 7;
+const WALL_CONTACT: u64 = 6;
+const GRAIN: u64 = 2;
 
 /// One member's part of a build: the rows [lo, hi) of the list.
 #[derive(Debug, Clone, Default)]
@@ -92,10 +101,6 @@ impl RowScratch {
         lo: usize,
         hi: usize,
     ) {
-        const PAIR: u64 = 1;
-        const CONTACT: u64 = 7;
-        const WALL_CONTACT: u64 = 6;
-        const GRAIN: u64 = 2;
         self.partner.clear();
         self.count.clear();
         self.cost.clear();
@@ -284,18 +289,59 @@ impl CellGrid {
     /// Cell coordinates of a point, fastest first (see `axes`).
     #[inline]
     fn coord(&self, x: Vec3) -> [usize; 3] {
-        let mut c = [0usize; 3];
-        for (k, &a) in self.axes.iter().enumerate() {
-            let f = ((x[a] - self.lo[a]) * self.inv_cell).floor();
-            // Grains outside the box are clamped into the edge cells (monotone, so close
-            // grains stay in the same or adjacent cells).
-            c[k] = if f <= 0.0 || f.is_nan() {
-                0
-            } else {
-                (f as usize).min(self.dims[k] - 1)
-            };
+        std::array::from_fn(|k| self.coord_along(k, x[self.axes[k]]))
+    }
+
+    /// Cell coordinate along cell direction `k` of a point whose lab coordinate along that
+    /// direction is `v`. Points outside the box are clamped into the edge cells (monotone,
+    /// so close grains stay in the same or adjacent cells).
+    #[inline(always)]
+    fn coord_along(&self, k: usize, v: Real) -> usize {
+        let a = self.axes[k];
+        let f = ((v - self.lo[a]) * self.inv_cell).floor();
+        if f <= 0.0 || f.is_nan() {
+            0
+        } else {
+            (f as usize).min(self.dims[k] - 1)
         }
-        c
+    }
+
+    /// The grains of a list sorted by cell index (`cell_of(k)` the cell of entry k, k <
+    /// `len`) whose cells lie within `reach` (m) of `x` along every direction, as index
+    /// ranges in ascending order: one bisection per row of the box of cells (the fastest
+    /// direction's cells of a row are consecutive indices). Without periodic directions.
+    fn sorted_ranges_near(
+        &self,
+        x: Vec3,
+        reach: Real,
+        len: usize,
+        cell_of: impl Fn(usize) -> usize,
+        mut visit: impl FnMut(std::ops::Range<usize>),
+    ) {
+        let lo: [usize; 3] = std::array::from_fn(|k| self.coord_along(k, x[self.axes[k]] - reach));
+        let hi: [usize; 3] = std::array::from_fn(|k| self.coord_along(k, x[self.axes[k]] + reach));
+        // First entry k of [0, len) whose cell is not below `cell`.
+        let first_at = |cell: usize| {
+            let (mut a, mut b) = (0, len);
+            while a < b {
+                let m = (a + b) / 2;
+                if cell_of(m) < cell {
+                    a = m + 1;
+                } else {
+                    b = m;
+                }
+            }
+            a
+        };
+        for c2 in lo[2]..=hi[2] {
+            for c1 in lo[1]..=hi[1] {
+                let from = first_at(self.index([lo[0], c1, c2]));
+                let to = first_at(self.index([hi[0], c1, c2]) + 1);
+                if from < to {
+                    visit(from..to);
+                }
+            }
+        }
     }
 
     #[inline]
@@ -368,8 +414,17 @@ pub struct NeighborList {
     contact_start: Vec<u32>,
     /// The list matches the current grain order.
     valid: bool,
+    /// Grains [0, appended_from) lie sorted by cell of their reference positions, as a
+    /// build leaves them; later ones were appended since ([`NeighborList::append`]). Only a search aid: what `append` lists does not
+    /// depend on it. `usize::MAX`: not known yet (a list from a checkpoint).
+    appended_from: usize,
     /// Builds so far.
     pub builds: u64,
+    /// Feeds whose grains joined the list without a build ([`NeighborList::append`]).
+    pub appends: u64,
+    /// Builds replaced by listing the far-drifted grains again
+    /// ([`NeighborList::refresh_movers`]).
+    pub refreshes: u64,
 }
 
 /// What of a [`NeighborList`] a checkpoint keeps: the list, its histories and its
@@ -445,6 +500,8 @@ impl NeighborList {
         self.x_at_build = k.x_at_build;
         self.saved = k.saved;
         self.valid = k.valid;
+        // (Found again at the next append: only a search aid, see `append`.)
+        self.appended_from = usize::MAX;
         self.builds = k.builds;
         Ok(())
     }
@@ -560,7 +617,116 @@ impl NeighborList {
         self.valid = true;
         self.x_at_build.clear();
         self.x_at_build.extend_from_slice(&state.position);
+        self.appended_from = n;
         self.builds += 1;
+    }
+
+    /// Whether grains pushed after the first `grains` can join the list by
+    /// [`NeighborList::append`] instead of a build: the list matches those grains and
+    /// knows which of them are in build order, and no direction wraps (a pair across a
+    /// seam needs its image shift, which only a build finds).
+    pub fn can_append(&self, grains: usize, grid: &CellGrid) -> bool {
+        self.valid
+            && self.start.len() == grains + 1
+            && self.x_at_build.len() == grains
+            && (self.appended_from <= grains || self.appended_from == usize::MAX)
+            && !grid.is_periodic()
+    }
+
+    /// Give grains [first, n) — just pushed, after a [`NeighborList::can_append`] of
+    /// `first` — rows of their own without a build: a new grain a lists every earlier
+    /// grain j closer than r_a + r_j + skin + D now, where D (m) is the largest drift of
+    /// any grain since its reference position (the last build's, or where it was
+    /// appended); its reference is where it is now.
+    ///
+    /// Why nothing is missed until the next build: a pair left out was at least
+    /// r_a + r_j + skin + D apart when a was appended, so to touch it must close by more
+    /// than skin + D. Grain a has moved its own drift since; grain j at most its drift now
+    /// plus its drift then (≤ D). So the two drifts add up to more than the skin, which is
+    /// the test that calls the next build
+    /// ([`ChunkVerdict::moved_far`](super::integrate::ChunkVerdict::moved_far)). The same
+    /// reasoning as a build's, with D added to the reach.
+    ///
+    /// The new rows list partners j < a (a build lists j > i), ascending; the force pass
+    /// and its spills take either. Earlier grains are found through the build's order:
+    /// sorted by slice along the box's longest direction at their build positions, so
+    /// those within reach lie in one index range, found by bisection (a feed into an 8 m
+    /// pipe of 600 000 grains tests a few thousand, where a build sorts them all); grains
+    /// appended since are tested one by one. A row holds every earlier grain within
+    /// reach in ascending order however they were found, so a run resumed from a
+    /// checkpoint (which does not keep where the sorted grains end) lists the same.
+    /// `r_max`: the largest grain radius (m). Returns how many pairs were added.
+    #[allow(clippy::too_many_arguments)]
+    pub fn append(
+        &mut self,
+        state: &ParticleState,
+        first: usize,
+        grid: &CellGrid,
+        skin: Real,
+        r_max: Real,
+        walls: &[Wall],
+        max_drift: Real,
+    ) -> usize {
+        let n = state.len();
+        debug_assert!(self.can_append(first, grid) && first <= n);
+        let (x, r) = (&state.position[..], &state.radius[..]);
+        let with_history = self.history.len() == self.partner.len();
+        let pairs_before = self.partner.len();
+        let cell = |p: &Vec3| grid.index(grid.coord(*p));
+        if self.appended_from == usize::MAX {
+            let x0 = &self.x_at_build;
+            self.appended_from = (1..x0.len())
+                .find(|&i| cell(&x0[i]) < cell(&x0[i - 1]))
+                .unwrap_or(x0.len());
+        }
+        let sorted = &self.x_at_build[..self.appended_from];
+        for a in first..n {
+            let (xa, ra) = (x[a], r[a]);
+            let before = self.partner.len();
+            let mut contacts = 0u64;
+            let mut test = |j: usize, partner: &mut Vec<u32>| {
+                let touch = ra + r[j];
+                let reach = touch + skin + max_drift;
+                let d2 = norm2(sub(x[j], xa));
+                if d2 < reach * reach {
+                    partner.push(j as u32);
+                    contacts += u64::from(d2 < touch * touch);
+                }
+            };
+            // Earlier grains in build order whose reference lies within the widest reach
+            // (their drift D counted twice: now and at their reference), by cell boxes;
+            // those appended since, one by one.
+            let widest = ra + r_max + skin + 2.0 * max_drift;
+            grid.sorted_ranges_near(
+                xa,
+                widest,
+                sorted.len(),
+                |k| cell(&sorted[k]),
+                |range| range.for_each(|j| test(j, &mut self.partner)),
+            );
+            (self.appended_from..a).for_each(|j| test(j, &mut self.partner));
+            self.partner[before..].sort_unstable();
+            let pairs = (self.partner.len() - before) as u64;
+            self.start.push(self.partner.len() as u32);
+            let mut cost = PAIR * pairs + CONTACT * contacts + GRAIN;
+            self.near_wall.resize(walls.len(), Vec::new());
+            for (near, wall) in self.near_wall.iter_mut().zip(walls) {
+                if let Some((overlap, _)) = wall.contact(xa, ra + skin) {
+                    near.push(a as u32);
+                    if overlap > skin {
+                        cost += WALL_CONTACT;
+                    }
+                }
+            }
+            self.cost.push(cost);
+        }
+        // (Their reference positions: where they are now.)
+        self.x_at_build.extend_from_slice(&x[first..n]);
+        if with_history {
+            self.history.resize(self.partner.len(), [0.0; 3]);
+        }
+        self.appends += 1;
+        self.partner.len() - pairs_before
     }
 
     /// Put the saved histories back on the new list's pairs: each saved contact goes to the
@@ -632,6 +798,229 @@ impl NeighborList {
         }
     }
 
+    /// In place of a build, when few grains have drifted far: the grains that drifted
+    /// more than `threshold` (m; "movers") are listed again from where they are now, as
+    /// [`NeighborList::append`] lists fed grains (with D the largest drift of the others,
+    /// ≤ `threshold`), and take that as their reference; the others keep their pairs among
+    /// themselves, their shear histories and their references. The movers' histories carry
+    /// over by id. The grains are then re-sorted (stably) by cell of their references, as a
+    /// build sorts them, so the next search can bisect. A flow where a few grains fly
+    /// fast over a slow bed (the gas stream over a resting layer) calls a build every few
+    /// steps for all of them; this searches pairs for the few, and only passes over the rest.
+    ///
+    /// Nothing is missed: a pair of two others is a build's; a pair with a mover is an
+    /// appended pair, and `append`'s reasoning holds for it. Afterwards no grain has
+    /// drifted more than `threshold` from its reference, so with `threshold` ≤ skin/4 the
+    /// next build or refresh is half a skin's drift away at least. A row lists its pairs
+    /// in any orientation (a pair of two others stays in its grain's row however the two
+    /// are re-sorted; a mover's row lists every other grain and the movers before it),
+    /// ascending, so the list depends on the grains and their drifts only.
+    ///
+    /// Returns how many grains were listed again, or None, changing nothing, when a build
+    /// is needed instead: the list cannot take such rows ([`NeighborList::can_append`]), no
+    /// grain drifted past `threshold`, or more than one grain in `max_share` did (movers'
+    /// reach is wider by D and their rows out of cell order: a build then pays). The new
+    /// order of the grains (old index of each) is [`NeighborList::last_order`].
+    #[allow(clippy::too_many_arguments)]
+    pub fn refresh_movers(
+        &mut self,
+        state: &mut ParticleState,
+        grid: &CellGrid,
+        skin: Real,
+        r_max: Real,
+        walls: &[Wall],
+        threshold: Real,
+        max_share: usize,
+        team: &Team,
+    ) -> Option<usize> {
+        let n = state.len();
+        if n == 0 || !self.can_append(n, grid) {
+            return None;
+        }
+        let (x, r, id) = (&state.position[..], &state.radius[..], &state.id[..]);
+        // 1. The movers, and the others' largest drift.
+        let limit2 = threshold * threshold;
+        let mut is_mover = vec![false; n];
+        let (mut movers, mut rest2): (usize, Real) = (0, 0.0);
+        for i in 0..n {
+            let d2 = norm2(sub(x[i], self.x_at_build[i]));
+            if d2 > limit2 {
+                is_mover[i] = true;
+                movers += 1;
+            } else {
+                rest2 = rest2.max(d2);
+            }
+        }
+        if movers == 0 || movers * max_share > n {
+            return None;
+        }
+        let rest_drift = rest2.sqrt();
+        // 2. The new references, and the grains' new order: by cell of the reference, as a
+        // build sorts, stably (a counting sort over the cells from the lowest to the
+        // highest that holds a grain).
+        let reference: Vec<Vec3> = (0..n)
+            .map(|i| {
+                if is_mover[i] {
+                    x[i]
+                } else {
+                    self.x_at_build[i]
+                }
+            })
+            .collect();
+        let cell: Vec<usize> = reference
+            .iter()
+            .map(|p| grid.index(grid.coord(*p)))
+            .collect();
+        let lowest = *cell.iter().min().expect("n > 0");
+        let highest = *cell.iter().max().expect("n > 0");
+        let mut fill = vec![0usize; highest - lowest + 2];
+        for &c in &cell {
+            fill[c - lowest + 1] += 1;
+        }
+        for c in 0..highest - lowest {
+            fill[c + 1] += fill[c];
+        }
+        let mut order = std::mem::take(&mut self.order);
+        order.clear();
+        order.resize(n, 0);
+        for (i, &c) in cell.iter().enumerate() {
+            order[fill[c - lowest]] = i;
+            fill[c - lowest] += 1;
+        }
+        let mut new_index = vec![0u32; n];
+        for (k, &i) in order.iter().enumerate() {
+            new_index[i] = k as u32;
+        }
+        // 3. The movers' live histories by (smaller id, larger id), seen from the smaller.
+        let with_history = self.history.len() == self.partner.len();
+        let mut saved = Vec::new();
+        if with_history {
+            for i in 0..n {
+                for k in self.start[i] as usize..self.start[i + 1] as usize {
+                    let j = self.partner[k] as usize;
+                    let h = self.history[k];
+                    if (is_mover[i] || is_mover[j]) && h != [0.0; 3] {
+                        let (a, b) = (id[i], id[j]);
+                        saved.push(if a < b {
+                            ((a, b), h)
+                        } else {
+                            ((b, a), [-h[0], -h[1], -h[2]])
+                        });
+                    }
+                }
+            }
+            saved.sort_unstable_by_key(|e| e.0);
+        }
+        // 4. The rows in the new order: an other's row less its pairs with movers; a
+        // mover's row searched (every other grain, and the movers before it, within
+        // r_a + r_j + skin + D now) in the cells its reach can hold.
+        let sorted_cell: Vec<usize> = order.iter().map(|&i| cell[i]).collect();
+        let mut start = Vec::with_capacity(n + 1);
+        let mut partner = Vec::with_capacity(self.partner.len());
+        let mut history = Vec::with_capacity(if with_history { self.partner.len() } else { 0 });
+        let mut cost = Vec::with_capacity(n);
+        let mut row: Vec<(u32, Vec3)> = Vec::new();
+        start.push(0u32);
+        for (k, &i) in order.iter().enumerate() {
+            if !is_mover[i] {
+                for p in self.start[i] as usize..self.start[i + 1] as usize {
+                    let j = self.partner[p] as usize;
+                    if !is_mover[j] {
+                        partner.push(new_index[j]);
+                        if with_history {
+                            history.push(self.history[p]);
+                        }
+                    }
+                }
+                cost.push(self.cost[i]);
+            } else {
+                let (xi, ri) = (x[i], r[i]);
+                let widest = ri + r_max + skin + 2.0 * rest_drift;
+                row.clear();
+                let mut contacts = 0u64;
+                grid.sorted_ranges_near(
+                    xi,
+                    widest,
+                    n,
+                    |c| sorted_cell[c],
+                    |range| {
+                        for c in range {
+                            let j = order[c];
+                            if c == k || (is_mover[j] && c > k) {
+                                continue;
+                            }
+                            let touch = ri + r[j];
+                            let reach = touch + skin + rest_drift;
+                            let d2 = norm2(sub(x[j], xi));
+                            if d2 < reach * reach {
+                                contacts += u64::from(d2 < touch * touch);
+                                let mut h = [0.0; 3];
+                                let key = (id[i].min(id[j]), id[i].max(id[j]));
+                                if let Ok(e) = saved.binary_search_by_key(&key, |e| e.0) {
+                                    let s = saved[e].1;
+                                    h = if id[i] == key.0 {
+                                        s
+                                    } else {
+                                        [-s[0], -s[1], -s[2]]
+                                    };
+                                }
+                                row.push((c as u32, h));
+                            }
+                        }
+                    },
+                );
+                row.sort_unstable_by_key(|e| e.0);
+                partner.extend(row.iter().map(|e| e.0));
+                if with_history {
+                    history.extend(row.iter().map(|e| e.1));
+                }
+                let mut work = PAIR * row.len() as u64 + CONTACT * contacts + GRAIN;
+                for wall in walls {
+                    if let Some((overlap, _)) = wall.contact(xi, ri + skin) {
+                        if overlap > skin {
+                            work += WALL_CONTACT;
+                        }
+                    }
+                }
+                cost.push(work);
+            }
+            start.push(partner.len() as u32);
+        }
+        // 5. The wall lists: the others keep theirs, the movers are tested from here.
+        for (near, wall) in self.near_wall.iter_mut().zip(walls) {
+            let mut listed = vec![false; n];
+            for &i in near.iter() {
+                listed[i as usize] = true;
+            }
+            near.clear();
+            near.extend((0..n).filter_map(|k| {
+                let i = order[k];
+                let keep = if is_mover[i] {
+                    wall.contact(x[i], r[i] + skin).is_some()
+                } else {
+                    listed[i]
+                };
+                keep.then_some(k as u32)
+            }));
+        }
+        self.x_at_build.clear();
+        self.x_at_build.extend(order.iter().map(|&i| reference[i]));
+        self.start = start;
+        self.partner = partner;
+        self.history = history;
+        self.cost = cost;
+        state.reorder(&order, walls.len(), &mut self.spare, team);
+        self.order = order;
+        self.appended_from = n;
+        self.refreshes += 1;
+        Some(movers)
+    }
+
+    /// The order [`NeighborList::refresh_movers`] left the grains in: the old index of each.
+    pub fn last_order(&self) -> &[usize] {
+        &self.order
+    }
+
     /// Keep only the grains `keep` (ascending old indices; grain `keep[k]` becomes grain k)
     /// without a new build: the rows and partners of the kept grains renumbered, their
     /// histories, wall lists, costs and build positions with them. The order of the kept
@@ -684,6 +1073,9 @@ impl NeighborList {
                 *i = new_index[*i as usize];
                 *i != GONE
             });
+        }
+        if self.appended_from != usize::MAX {
+            self.appended_from = keep.partition_point(|&i| i < self.appended_from);
         }
         for (k, &i) in keep.iter().enumerate() {
             self.cost[k] = self.cost[i];
@@ -913,6 +1305,232 @@ mod tests {
             along_x.index(along_x.coord(b)),
         );
         assert_eq!(ib - ia, 25);
+    }
+
+    /// Grains fed between builds join the list by `append`, and when the drifts call for a
+    /// build the far-drifted few are listed again by `refresh_movers` (their histories
+    /// kept by id), and no touching pair and no grain touching the wall goes unlisted
+    /// until the two largest drifts add up to the skin: grains of a long box moving at
+    /// velocities of their own that turn now and then (every 25th ten times faster, so the
+    /// drift D of the reach matters), new grains pushed at random every third round (half
+    /// of them within a grain of an old one), some grains leaving by `retain` between
+    /// feeds, every round checked against all pairs by brute force, over several builds.
+    #[test]
+    fn appended_grains_miss_no_contact_until_a_build_is_due() {
+        let mut rng = Rng::new(23);
+        let walls = vec![Wall {
+            name: "floor".into(),
+            shape: WallShape::Plane {
+                point: [0.0, 0.0, 0.0],
+                normal: [0.0, 0.0, 1.0],
+            },
+            friction: None,
+        }];
+        let nw = walls.len();
+        let (l, skin, r_max) = ([0.06, 0.01, 0.01], 3e-4, 1e-3);
+        let grid = CellGrid::new([0.0; 3], l, 2.0 * r_max + skin);
+        let team = Team::new(1);
+        let mut s = ParticleState::default();
+        let mut next_id = 0u64;
+        let mut push_random = |s: &mut ParticleState, rng: &mut Rng, near: Option<Vec3>| {
+            let x = match near {
+                Some(c) => std::array::from_fn(|k| c[k] + 2.0 * r_max * (rng.uniform() - 0.5)),
+                None => std::array::from_fn(|k| l[k] * rng.uniform()),
+            };
+            let r = r_max * (0.8 + 0.2 * rng.uniform());
+            s.push(next_id, x, [0.0; 3], r, 1000.0, nw);
+            next_id += 1;
+        };
+        for _ in 0..300 {
+            push_random(&mut s, &mut rng, None);
+        }
+        let mut list = NeighborList::default();
+        list.rebuild(&mut s, &grid, skin, &walls, true, &team);
+        let (mut checked_contacts, mut appended_pairs, mut builds) = (0usize, 0usize, 1);
+        let (mut refreshes, mut triggers) = (0, 0);
+        for round in 0..240 {
+            // Drifts since each grain's reference; a build when the two largest cover the skin.
+            let reference = list.reference_positions();
+            let mut drifts: Vec<Real> = (0..s.len())
+                .map(|i| norm2(sub(s.position[i], reference[i])).sqrt())
+                .collect();
+            drifts.sort_by(|a, b| b.total_cmp(a));
+            if drifts[0] + drifts[1] > skin {
+                // The far-drifted few listed again if they are few (their histories by id
+                // kept: every listed pair carries one made of its ids), a build otherwise.
+                let mark = |list: &mut NeighborList, s: &ParticleState| {
+                    for i in 0..s.len() {
+                        for k in list.start[i] as usize..list.start[i + 1] as usize {
+                            let (a, b) = (s.id[i], s.id[list.partner[k] as usize]);
+                            let h = [a.min(b) as Real, a.max(b) as Real, 1.0];
+                            list.history[k] = if a < b { h } else { h.map(|c| -c) };
+                        }
+                    }
+                };
+                mark(&mut list, &s);
+                let before = pairs(&list, &s);
+                // (Every third time a build anyway, so builds after appends are tried too.)
+                triggers += 1;
+                if triggers % 3 != 0
+                    && list
+                        .refresh_movers(&mut s, &grid, skin, r_max, &walls, skin / 4.0, 8, &team)
+                        .is_some()
+                {
+                    refreshes += 1;
+                    for ((a, b), h) in pairs(&list, &s) {
+                        let was = before.binary_search_by_key(&(a, b), |e| e.0).is_ok();
+                        let expected = if was {
+                            [a as Real, b as Real, 1.0]
+                        } else {
+                            [0.0; 3]
+                        };
+                        assert_eq!(h, expected, "round {round}: history of ({a}, {b})");
+                    }
+                    let reference = list.reference_positions();
+                    assert!((0..s.len())
+                        .all(|i| norm2(sub(s.position[i], reference[i])).sqrt() <= skin / 4.0));
+                } else {
+                    list.rebuild(&mut s, &grid, skin, &walls, true, &team);
+                    builds += 1;
+                    continue;
+                }
+            }
+            // Every touching pair listed (once), every grain touching the floor near it.
+            let listed: Vec<(u64, u64)> = pairs(&list, &s).into_iter().map(|p| p.0).collect();
+            assert!(
+                listed.windows(2).all(|w| w[0] != w[1]),
+                "round {round}: a pair twice"
+            );
+            for i in 0..s.len() {
+                for j in i + 1..s.len() {
+                    let touch = s.radius[i] + s.radius[j];
+                    if norm2(sub(s.position[j], s.position[i])) < touch * touch {
+                        let key = (s.id[i].min(s.id[j]), s.id[i].max(s.id[j]));
+                        assert!(
+                            listed.binary_search(&key).is_ok(),
+                            "round {round}: contact {key:?} not listed"
+                        );
+                        checked_contacts += 1;
+                    }
+                }
+                if walls[0].contact(s.position[i], s.radius[i]).is_some() {
+                    assert!(
+                        list.near_wall[0].contains(&(i as u32)),
+                        "round {round}: grain {} on the floor not listed",
+                        s.id[i]
+                    );
+                }
+            }
+            // Some grains leave (a third of the rounds), some are fed (another third).
+            if round % 3 == 1 {
+                let keep: Vec<usize> = (0..s.len()).filter(|_| rng.uniform() > 0.02).collect();
+                assert!(list.retain(&keep, s.len()));
+                s.permute(&keep, nw);
+            } else if round % 3 == 2 {
+                assert!(list.can_append(s.len(), &grid));
+                let first = s.len();
+                for k in 0..8 {
+                    let near =
+                        (k % 2 == 0).then(|| s.position[(rng.uniform() * first as Real) as usize]);
+                    push_random(&mut s, &mut rng, near);
+                }
+                appended_pairs += list.append(&s, first, &grid, skin, r_max, &walls, drifts[0]);
+            }
+            // Everyone moves on at a velocity of its own (drawn from its id and the current
+            // stretch of 7 rounds, so it turns now and then); every 25th grain ten times as
+            // fast.
+            for i in 0..s.len() {
+                let fast = s.id[i] % 25 == 0;
+                let step = if fast { 4e-5 } else { 4e-6 };
+                let mut own = Rng::new(s.id[i] * 1000 + round / 7);
+                for c in 0..3 {
+                    s.position[i][c] += step * (2.0 * own.uniform() - 1.0);
+                }
+            }
+        }
+        assert!(builds >= 3, "{builds} builds");
+        assert!(refreshes >= 10, "{refreshes} refreshes");
+        assert!(list.appends >= 40, "{} appends", list.appends);
+        assert!(appended_pairs > 500, "{appended_pairs} pairs appended");
+        assert!(
+            checked_contacts > 10_000,
+            "{checked_contacts} contacts checked"
+        );
+    }
+
+    /// The drift D in an appended grain's reach: an old grain drifted D away from a spot
+    /// before a new grain is appended a skin and half a D from it (out of a build's reach,
+    /// r_a + r_j + skin); the old one then moves 2 D back towards the new one, which moves
+    /// 1.25 D towards it, and they touch, while their drifts (D and 1.25 D) add up to less
+    /// than the skin: no build is due, so the pair must have been listed.
+    #[test]
+    fn an_appended_grain_lists_partners_within_the_drift_of_the_reach() {
+        let (skin, r, drift) = (3e-4, 1e-3, 1.2e-4);
+        let l = [0.02, 0.01, 0.01];
+        let grid = CellGrid::new([0.0; 3], l, 2.0 * r + skin);
+        let mut s = ParticleState::default();
+        s.push(0, [0.0100, 0.005, 0.005], [0.0; 3], r, 1000.0, 0);
+        let mut list = NeighborList::default();
+        list.rebuild(&mut s, &grid, skin, &[], true, &Team::new(1));
+        s.position[0][0] -= drift;
+        let gap = skin + 0.5 * drift;
+        s.push(
+            1,
+            [s.position[0][0] + 2.0 * r + gap, 0.005, 0.005],
+            [0.0; 3],
+            r,
+            1000.0,
+            0,
+        );
+        assert!(list.can_append(1, &grid));
+        assert_eq!(list.append(&s, 1, &grid, skin, r, &[], drift), 1);
+        s.position[0][0] += 2.0 * drift;
+        s.position[1][0] -= 1.25 * drift;
+        assert!(drift + 1.25 * drift < skin, "a build would be due");
+        let d = s.position[1][0] - s.position[0][0];
+        assert!(d < 2.0 * r, "not in contact: {d}");
+        assert_eq!(
+            list.partner[list.start[1] as usize..list.start[2] as usize],
+            [0]
+        );
+    }
+
+    /// The drift D of the others in a refreshed mover's reach: as for an appended grain
+    /// (above), an old grain drifted D (under the mover threshold) away before a far-drifted
+    /// grain is listed again a skin and half a D from it; they then close on each other and
+    /// touch before their drifts add up to the skin.
+    #[test]
+    fn a_refreshed_mover_lists_partners_within_the_drift_of_the_others() {
+        let (skin, r) = (3e-4, 1e-3);
+        let (threshold, drift) = (skin / 4.0, 7e-5);
+        let grid = CellGrid::new([0.0; 3], [0.03, 0.01, 0.01], 2.0 * r + skin);
+        let mut s = ParticleState::default();
+        s.push(0, [0.010, 0.005, 0.005], [0.0; 3], r, 1000.0, 0);
+        s.push(1, [0.020, 0.005, 0.005], [0.0; 3], r, 1000.0, 0);
+        let mut list = NeighborList::default();
+        list.rebuild(&mut s, &grid, skin, &[], true, &Team::new(1));
+        assert_eq!(list.partner.len(), 0);
+        let (slow, fast) = if s.id[0] == 0 { (0, 1) } else { (1, 0) };
+        s.position[slow][0] -= drift;
+        s.position[fast][0] = s.position[slow][0] + 2.0 * r + skin + 0.5 * drift;
+        let refreshed =
+            list.refresh_movers(&mut s, &grid, skin, r, &[], threshold, 1, &Team::new(1));
+        assert_eq!(refreshed, Some(1));
+        // The mover last; the slow grain moves 2 D back, the mover skin − 1.2 D towards it.
+        let (slow, fast) = (0, 1);
+        assert_eq!(s.id[fast], 1);
+        s.position[slow][0] += 2.0 * drift;
+        let step = skin - 1.2 * drift;
+        s.position[fast][0] -= step;
+        assert!(drift + step < skin, "a build would be due");
+        assert!(
+            s.position[fast][0] - s.position[slow][0] < 2.0 * r,
+            "not in contact"
+        );
+        assert_eq!(
+            list.partner[list.start[1] as usize..list.start[2] as usize],
+            [0]
+        );
     }
 
     /// Grains leaving between builds: the list cut down by `retain` is the list a build at
