@@ -450,17 +450,7 @@ impl NativeDem {
             );
         }
         // As `predict_velocities(true)` would set them (a new grain has no force yet).
-        let h = 0.5 * cfg.dt;
-        for i in first..n {
-            let a = s.inv_mass[i] * h;
-            let (v, f) = (s.velocity[i], s.force[i]);
-            self.velocity_pred
-                .push([v[0] + f[0] * a, v[1] + f[1] * a, v[2] + f[2] * a]);
-            let b = s.inv_inertia[i] * h;
-            let (w, t) = (s.angular_velocity[i], s.torque[i]);
-            self.angular_velocity_pred
-                .push([w[0] + t[0] * b, w[1] + t[1] * b, w[2] + t[2] * b]);
-        }
+        self.predict_from(first, true);
         self.cut_chunks();
     }
 
@@ -608,17 +598,22 @@ impl NativeDem {
     /// (which reorders grains) and at the start of `advance`, where `half_step` is false
     /// because the velocities are already full-step ones.
     fn predict_velocities(&mut self, half_step: bool) {
+        self.velocity_pred.clear();
+        self.angular_velocity_pred.clear();
+        self.predict_from(0, half_step);
+    }
+
+    /// [`NativeDem::predict_velocities`] of grains [first, n), appended to the predictions.
+    fn predict_from(&mut self, first: usize, half_step: bool) {
         let h = if half_step { 0.5 * self.cfg.dt } else { 0.0 };
         let s = &self.state;
-        self.velocity_pred.clear();
-        self.velocity_pred.extend((0..s.len()).map(|i| {
+        self.velocity_pred.extend((first..s.len()).map(|i| {
             let a = s.inv_mass[i] * h;
             let (v, f) = (s.velocity[i], s.force[i]);
             [v[0] + f[0] * a, v[1] + f[1] * a, v[2] + f[2] * a]
         }));
         if self.cfg.rotation {
-            self.angular_velocity_pred.clear();
-            self.angular_velocity_pred.extend((0..s.len()).map(|i| {
+            self.angular_velocity_pred.extend((first..s.len()).map(|i| {
                 let b = s.inv_inertia[i] * h;
                 let (w, t) = (s.angular_velocity[i], s.torque[i]);
                 [w[0] + t[0] * b, w[1] + t[1] * b, w[2] + t[2] * b]

@@ -819,8 +819,7 @@ impl NeighborList {
     /// Returns how many grains were listed again, or None, changing nothing, when a build
     /// is needed instead: the list cannot take such rows ([`NeighborList::can_append`]), no
     /// grain drifted past `threshold`, or more than one grain in `max_share` did (movers'
-    /// reach is wider by D and their rows out of cell order: a build then pays). The new
-    /// order of the grains (old index of each) is [`NeighborList::last_order`].
+    /// reach is wider by D and their rows out of cell order: a build then pays).
     #[allow(clippy::too_many_arguments)]
     pub fn refresh_movers(
         &mut self,
@@ -1016,11 +1015,6 @@ impl NeighborList {
         Some(movers)
     }
 
-    /// The order [`NeighborList::refresh_movers`] left the grains in: the old index of each.
-    pub fn last_order(&self) -> &[usize] {
-        &self.order
-    }
-
     /// Keep only the grains `keep` (ascending old indices; grain `keep[k]` becomes grain k)
     /// without a new build: the rows and partners of the kept grains renumbered, their
     /// histories, wall lists, costs and build positions with them. The order of the kept
@@ -1122,6 +1116,18 @@ mod tests {
     use super::*;
     use crate::dem::walls::WallShape;
     use crate::rng::Rng;
+
+    /// A plane at z = 0 facing up.
+    fn floor() -> Wall {
+        Wall {
+            name: "floor".into(),
+            shape: WallShape::Plane {
+                point: [0.0, 0.0, 0.0],
+                normal: [0.0, 0.0, 1.0],
+            },
+            friction: None,
+        }
+    }
 
     /// (id pairs, their histories) of a list, as sorted (smaller id, larger id) keys.
     fn pairs(l: &NeighborList, s: &ParticleState) -> Vec<((u64, u64), Vec3)> {
@@ -1318,14 +1324,7 @@ mod tests {
     #[test]
     fn appended_grains_miss_no_contact_until_a_build_is_due() {
         let mut rng = Rng::new(23);
-        let walls = vec![Wall {
-            name: "floor".into(),
-            shape: WallShape::Plane {
-                point: [0.0, 0.0, 0.0],
-                normal: [0.0, 0.0, 1.0],
-            },
-            friction: None,
-        }];
+        let walls = vec![floor()];
         let nw = walls.len();
         let (l, skin, r_max) = ([0.06, 0.01, 0.01], 3e-4, 1e-3);
         let grid = CellGrid::new([0.0; 3], l, 2.0 * r_max + skin);
@@ -1539,14 +1538,7 @@ mod tests {
     #[test]
     fn retain_equals_a_build_of_the_grains_that_stay() {
         let mut rng = Rng::new(7);
-        let walls = vec![Wall {
-            name: "floor".into(),
-            shape: WallShape::Plane {
-                point: [0.0, 0.0, 0.0],
-                normal: [0.0, 0.0, 1.0],
-            },
-            friction: None,
-        }];
+        let walls = vec![floor()];
         let mut s = ParticleState::default();
         for id in 0..400u64 {
             let x = std::array::from_fn(|_| 0.02 * rng.uniform());
