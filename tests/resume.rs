@@ -370,6 +370,12 @@ fn a_run_starts_from_another_runs_filled_tube() {
     assert!((1..45).contains(&n("grains_fed")), "{s}");
     let log = std::fs::read_to_string(next.join("log.plugflow")).unwrap();
     assert!(log.contains(&format!("{taken} grains")), "{log}");
+    // The list's counts are this run's own: every append joins at least one fed grain, so
+    // appends ≤ grains fed (the filled run's 30-odd appends carried over would break it),
+    // and its first build is counted.
+    let f = |k: &str| s[k].as_f64().unwrap_or_else(|| panic!("{k}: {s}"));
+    assert!(f("neighbor_appends") <= f("grains_fed"), "{s}");
+    assert!(f("neighbor_builds") >= 1.0, "{s}");
 
     let other = fresh("from_other_tube");
     let (code, text) = run(&scene, &other, "0.05", &["tube.diameter=\"8 mm\""], &from);
@@ -520,6 +526,55 @@ fn a_resumed_conveyor_run_is_the_uninterrupted_run_bit_for_bit() {
     // grains per 4-diameter block at 12 850 grains per metre: ±25).
     assert!((26..77).contains(&n("grains_fed")), "{s}");
     for d in [straight, parts, filled, next] {
+        std::fs::remove_dir_all(d).ok();
+    }
+}
+
+/// A checkpoint written before the built-in engine kept the list's upkeep counts (its
+/// format 1: `tests/scenes/format1/checkpoint_format1.pfc`, the vertical case at 0.01 s,
+/// written by build 41c6c18) is still read. Resumed, the run goes on and its summary leaves
+/// the counts out (what they were before the resume is unknown: not reported as the part
+/// since); started from with `--from`, the counts are the new run's own.
+#[test]
+fn a_format_1_checkpoint_is_resumed_and_started_from() {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/scenes/format1");
+    let scene = dir.join("vertical_plug.toml").display().to_string();
+    let old = dir.join("checkpoint_format1.pfc");
+    let sets = ["output.checkpoint_interval=0.01 s"];
+
+    // The run's outputs up to 0.01 s, written by this build, with its checkpoint there
+    // replaced by the format-1 one of the same state.
+    let parts = fresh("format1_parts");
+    let (code, text) = run(&scene, &parts, "0.01", &sets, &[]);
+    assert_eq!(code, 0, "{text}");
+    let ours = checkpoints(&parts).pop().expect("a checkpoint at 0.01 s");
+    assert!(ours.ends_with("checkpoint_000000003000.pfc"), "{ours:?}");
+    std::fs::copy(&old, &ours).unwrap();
+    let resume = ["--resume", parts.to_str().unwrap()];
+    let (code, text) = run(&scene, &parts, "0.03", &sets, &resume);
+    assert_eq!(code, 0, "{text}");
+    let s = read_summary(&parts);
+    assert!(
+        (s["simulated_time_s"].as_f64().unwrap() - 0.03).abs() < 1e-9,
+        "{s}"
+    );
+    assert!(s["neighbor_builds"].as_f64().is_some(), "{s}");
+    for key in ["neighbor_refreshes", "neighbor_appends"] {
+        assert!(
+            s.get(key).is_none(),
+            "{key} reported after a format-1 resume: {s}"
+        );
+    }
+
+    let next = fresh("format1_from");
+    let from = ["--from", old.to_str().unwrap()];
+    let (code, text) = run(&scene, &next, "0.02", &[], &from);
+    assert_eq!(code, 0, "{text}");
+    let s = read_summary(&next);
+    let f = |k: &str| s[k].as_f64().unwrap_or_else(|| panic!("{k}: {s}"));
+    assert!(f("neighbor_appends") <= f("grains_fed"), "{s}");
+    assert!(f("neighbor_builds") >= 1.0, "{s}");
+    for d in [parts, next] {
         std::fs::remove_dir_all(d).ok();
     }
 }

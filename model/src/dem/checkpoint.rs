@@ -8,7 +8,7 @@
 
 use plugflow_coupling::{BackendError, StageTimer};
 
-use super::neighbor::NeighborKeep;
+use super::neighbor::{ListUpkeep, NeighborKeep};
 use super::state::ParticleState;
 use super::{cut_by_cost, FlowCounters, NativeDem, MIN_GRAINS_PER_CHUNK};
 use crate::dem::conveyor::Conveyor;
@@ -16,8 +16,12 @@ use crate::dem::inlet::Feeder;
 use crate::rng::Rng;
 use crate::{Real, Vec3};
 
-/// Bumped whenever [`Saved`] changes: an older checkpoint is refused, not misread.
-const FORMAT: u32 = 1;
+/// Bumped whenever [`Saved`] or what follows it changes: an older checkpoint is refused,
+/// not misread. Format 2 writes the list's upkeep counts after [`Saved`]; format 1
+/// (without them) is still read, the counts then unknown before the resume.
+const FORMAT: u32 = 2;
+/// The oldest format this build reads.
+const OLDEST_READ: u32 = 1;
 
 #[derive(serde::Serialize, serde::Deserialize)]
 struct Saved {
@@ -71,6 +75,9 @@ pub(super) fn save(dem: &NativeDem) -> Result<Vec<u8>, BackendError> {
     };
     let mut bytes = postcard::to_allocvec(&saved)
         .map_err(|e| refused(format!("cannot encode the grains: {e}")))?;
+    let upkeep = postcard::to_allocvec(&dem.nlist.upkeep)
+        .map_err(|e| refused(format!("cannot encode the list's upkeep counts: {e}")))?;
+    bytes.extend(upkeep);
     // The conveyor's column follows as a trailer (checkpoints of runs without one, and
     // those written before it existed, end with the grains).
     if let Some(column) = &dem.conveyor {
@@ -108,8 +115,22 @@ pub(super) fn restore(dem: &mut NativeDem, bytes: &[u8]) -> Result<(), BackendEr
 /// [`restore`] but for the conveyor's column, returned as read (None: the checkpoint has
 /// none).
 fn restore_grains(dem: &mut NativeDem, bytes: &[u8]) -> Result<Option<Conveyor>, BackendError> {
-    let (s, trailer): (Saved, &[u8]) = postcard::take_from_bytes(bytes)
+    let (s, rest): (Saved, &[u8]) = postcard::take_from_bytes(bytes)
         .map_err(|e| refused(format!("the engine's part cannot be read: {e}")))?;
+    if !(OLDEST_READ..=FORMAT).contains(&s.format) {
+        return Err(refused(format!(
+            "written in the engine's format {}, this build reads formats {OLDEST_READ} to \
+             {FORMAT}",
+            s.format
+        )));
+    }
+    let (upkeep, trailer) = if s.format >= 2 {
+        let (u, t): (ListUpkeep, &[u8]) = postcard::take_from_bytes(rest)
+            .map_err(|e| refused(format!("the list's upkeep counts cannot be read: {e}")))?;
+        (Some(u), t)
+    } else {
+        (None, rest)
+    };
     let column = if trailer.is_empty() {
         None
     } else {
@@ -118,12 +139,6 @@ fn restore_grains(dem: &mut NativeDem, bytes: &[u8]) -> Result<Option<Conveyor>,
                 .map_err(|e| refused(format!("the conveyor's column cannot be read: {e}")))?,
         )
     };
-    if s.format != FORMAT {
-        return Err(refused(format!(
-            "written in the engine's format {}, this build reads format {FORMAT}",
-            s.format
-        )));
-    }
     let nw = dem.cfg.walls.len();
     if s.walls != nw || s.wall_force.len() != nw {
         return Err(refused(format!(
@@ -151,6 +166,8 @@ fn restore_grains(dem: &mut NativeDem, bytes: &[u8]) -> Result<Option<Conveyor>,
         )));
     }
     dem.nlist.restore(s.nlist, n).map_err(refused)?;
+    dem.nlist.upkeep = upkeep.unwrap_or_default();
+    dem.upkeep_unknown_before_resume = upkeep.is_none();
     if s.may_leave.iter().any(|&i| i as usize >= n) || s.bounds.last().is_some_and(|&b| b > n) {
         return Err(refused(
             "a grain index lies past the last grain".to_string(),
@@ -245,6 +262,10 @@ pub(super) fn start_from(dem: &mut NativeDem, bytes: &[u8]) -> Result<(), Backen
         dem.conveyor = Some(column);
     }
     dem.timer = StageTimer::new();
+    // The list's counts are this run's (its first build below is one of them).
+    dem.nlist.builds = 0;
+    dem.nlist.upkeep = ListUpkeep::default();
+    dem.upkeep_unknown_before_resume = false;
     // The skin may be the scene's own: the list is built again at the first step (the
     // shear histories carry over through the rebuild, as at every build).
     dem.rebuild_pending = true;

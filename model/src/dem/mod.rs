@@ -92,6 +92,9 @@ pub struct NativeDem {
     next_id: u64,
     rng: Rng,
     rebuild_pending: bool,
+    /// Resumed from a checkpoint that did not keep the list's upkeep counts (format 1):
+    /// the summary then leaves them out rather than report the part since the resume.
+    upkeep_unknown_before_resume: bool,
     /// The inlet's bookkeeping.
     feeder: Feeder,
     /// The conveyor inlet's column (`inlet.mode = "conveyor"` only).
@@ -149,6 +152,7 @@ impl NativeDem {
             step: 0,
             next_id: 0,
             rebuild_pending: true,
+            upkeep_unknown_before_resume: false,
             feeder: Feeder::default(),
             conveyor: None,
             flow: FlowCounters::default(),
@@ -1120,14 +1124,18 @@ impl DemBackend for NativeDem {
     }
 
     fn diagnostics(&self) -> Vec<(String, f64)> {
-        vec![
-            ("neighbor_builds".into(), self.neighbor_builds() as f64),
-            (
-                "inlet_backlog_grains".into(),
-                self.feeder.backlog + self.conveyor.as_ref().map_or(0.0, |c| c.unplaced as Real),
-            ),
-            ("inlet_blocked_time_s".into(), self.feeder.blocked_time),
-        ]
+        let mut d = vec![("neighbor_builds".into(), self.neighbor_builds() as f64)];
+        if !self.upkeep_unknown_before_resume {
+            let u = self.nlist.upkeep;
+            d.push(("neighbor_refreshes".into(), u.refreshes as f64));
+            d.push(("neighbor_appends".into(), u.appends as f64));
+        }
+        d.push((
+            "inlet_backlog_grains".into(),
+            self.feeder.backlog + self.conveyor.as_ref().map_or(0.0, |c| c.unplaced as Real),
+        ));
+        d.push(("inlet_blocked_time_s".into(), self.feeder.blocked_time));
+        d
     }
 
     /// The step's total force less gravity and the fluid force: what the contacts gave.

@@ -420,6 +420,13 @@ pub struct NeighborList {
     appended_from: usize,
     /// Builds so far.
     pub builds: u64,
+    /// How the list was kept between builds (the summary reports them).
+    pub upkeep: ListUpkeep,
+}
+
+/// How often a [`NeighborList`] was kept without a whole build, since the run began.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+pub struct ListUpkeep {
     /// Feeds whose grains joined the list without a build ([`NeighborList::append`]).
     pub appends: u64,
     /// Builds replaced by listing the far-drifted grains again
@@ -479,7 +486,7 @@ impl NeighborList {
         let pairs = k.start.last().map_or(0, |&e| e as usize);
         if !rows_fit || k.partner.len() != pairs || k.history.len() != pairs {
             return Err(format!(
-                "the neighbour list ({} rows, {} pairs, {} histories) does not fit {grains}                  grains",
+                "the neighbour list ({} rows, {} pairs, {} histories) does not fit {grains} grains",
                 k.start.len().saturating_sub(1),
                 k.partner.len(),
                 k.history.len()
@@ -725,7 +732,7 @@ impl NeighborList {
         if with_history {
             self.history.resize(self.partner.len(), [0.0; 3]);
         }
-        self.appends += 1;
+        self.upkeep.appends += 1;
         self.partner.len() - pairs_before
     }
 
@@ -1011,7 +1018,7 @@ impl NeighborList {
         state.reorder(&order, walls.len(), &mut self.spare, team);
         self.order = order;
         self.appended_from = n;
-        self.refreshes += 1;
+        self.upkeep.refreshes += 1;
         Some(movers)
     }
 
@@ -1449,7 +1456,7 @@ mod tests {
         }
         assert!(builds >= 3, "{builds} builds");
         assert!(refreshes >= 10, "{refreshes} refreshes");
-        assert!(list.appends >= 40, "{} appends", list.appends);
+        assert!(list.upkeep.appends >= 40, "{} appends", list.upkeep.appends);
         assert!(appended_pairs > 500, "{appended_pairs} pairs appended");
         assert!(
             checked_contacts > 10_000,
