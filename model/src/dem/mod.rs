@@ -333,25 +333,20 @@ impl NativeDem {
     /// In place of a build when the drifts call for one: the grains that drifted more than
     /// a quarter of the skin listed again, if they are few
     /// ([`NeighborList::refresh_movers`]), with the outlet's list and the threads' chunks
-    /// made to fit. False: a build is needed.
-    fn refresh(&mut self, team: &Team) -> bool {
+    /// made to fit. None: a build is needed; else the largest drift of any grain from its
+    /// reference left after it (m).
+    fn refresh(&mut self, team: &Team) -> Option<Real> {
         let cfg = &self.cfg;
-        if self
-            .nlist
-            .refresh_movers(
-                &mut self.state,
-                &self.grid,
-                cfg.skin,
-                cfg.radius_max,
-                &cfg.walls,
-                MOVER_DRIFT_OF_SKIN * cfg.skin,
-                MOVER_SHARE,
-                team,
-            )
-            .is_none()
-        {
-            return false;
-        }
+        let refreshed = self.nlist.refresh_movers(
+            &mut self.state,
+            &self.grid,
+            cfg.skin,
+            cfg.radius_max,
+            &cfg.walls,
+            MOVER_DRIFT_OF_SKIN * cfg.skin,
+            MOVER_SHARE,
+            team,
+        )?;
         if cfg.inlet.is_some() || cfg.removes_grains {
             // As a build sets it, from the reference positions (the others' are their
             // build's, the movers' where they are now).
@@ -364,7 +359,7 @@ impl NativeDem {
             );
         }
         self.cut_chunks();
-        true
+        Some(refreshed.largest_drift)
     }
 
     /// The threads' chunks of the grains, cut by the list's work per grain.
@@ -752,19 +747,32 @@ impl NativeDem {
             self.time += dt;
             self.step += 1;
             let t1 = Instant::now();
+            let mut t2 = t1;
             if self.step.is_multiple_of(FEED_STRIDE)
                 && (self.cfg.inlet.is_some() || self.cfg.removes_grains)
             {
+                // A build due at a feed: the far-drifted grains listed again first, when
+                // they are few, so that the leaving grains are cut from the list and the
+                // fed ones join it (a feed into the list due for a build calls one).
+                let mut largest_drift = verdict.drift2[0].sqrt();
+                if moved_far && !self.rebuild_pending {
+                    if let Some(d) = self.refresh(team) {
+                        self.predict_velocities(true);
+                        (moved_far, largest_drift) = (false, d);
+                    }
+                    t2 = Instant::now();
+                    self.timer.add("neighbor", (t2 - t1).as_secs_f64());
+                }
                 self.remove_leaving(!(moved_far || self.rebuild_pending), team);
                 // (No build due: fed grains join the list as they are.)
                 let no_build = !(moved_far || self.rebuild_pending);
-                let max_drift = no_build.then(|| verdict.drift2[0].sqrt());
-                self.feed(FEED_STRIDE as Real * dt, max_drift);
+                self.feed(FEED_STRIDE as Real * dt, no_build.then_some(largest_drift));
             }
-            let t2 = Instant::now();
-            self.timer.add("inlet_outlet", (t2 - t1).as_secs_f64());
+            let t3 = Instant::now();
+            self.timer.add("inlet_outlet", (t3 - t2).as_secs_f64());
+            let t2 = t3;
             if self.rebuild_pending || moved_far {
-                if self.rebuild_pending || !self.refresh(team) {
+                if self.rebuild_pending || self.refresh(team).is_none() {
                     self.rebuild(team);
                 }
                 self.predict_velocities(true);

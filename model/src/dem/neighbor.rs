@@ -404,6 +404,9 @@ pub struct NeighborList {
     spare: ReorderScratch,
     /// Scratch: each member's rows.
     rows: Vec<RowScratch>,
+    /// Scratch of [`NeighborList::refresh_movers`] (a refresh every few steps allocates
+    /// nothing once these have grown).
+    refresh: RefreshScratch,
     /// Live histories keyed by (smaller id, larger id), as seen from the smaller id; filled
     /// by [`NeighborList::stash_history`] before grain indices change.
     saved: Vec<((u64, u64), Vec3)>,
@@ -422,6 +425,44 @@ pub struct NeighborList {
     pub builds: u64,
     /// How the list was kept between builds (the summary reports them).
     pub upkeep: ListUpkeep,
+}
+
+/// The pair test of a row listed between builds ([`NeighborList::append`],
+/// [`NeighborList::refresh_movers`]): grains a and j are listed when closer than
+/// r_a + r_j + `margin` (the skin plus the others' largest drift D); Some(touching) then.
+fn appended_pair(xa: Vec3, ra: Real, xj: Vec3, rj: Real, margin: Real) -> Option<bool> {
+    let touch = ra + rj;
+    let reach = touch + margin;
+    let d2 = norm2(sub(xj, xa));
+    (d2 < reach * reach).then_some(d2 < touch * touch)
+}
+
+/// Scratch of [`NeighborList::refresh_movers`]: per grain the movers, the new references,
+/// the new index and the cell of the k-th grain in the new order; the movers' saved
+/// histories and a row being searched; the wall flags; and the new list's columns, swapped
+/// with the list's own (so each refresh reuses the previous list's memory).
+#[derive(Debug, Clone, Default)]
+struct RefreshScratch {
+    is_mover: Vec<bool>,
+    reference: Vec<Vec3>,
+    new_index: Vec<u32>,
+    sorted_cell: Vec<u32>,
+    saved: Vec<((u64, u64), Vec3)>,
+    row: Vec<(u32, Vec3)>,
+    listed: Vec<bool>,
+    start: Vec<u32>,
+    partner: Vec<u32>,
+    history: Vec<Vec3>,
+    cost: Vec<u64>,
+}
+
+/// What [`NeighborList::refresh_movers`] did.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Refreshed {
+    /// Grains listed again from where they are (their drift is now zero).
+    pub movers: usize,
+    /// The largest drift of any grain from its reference afterwards (m): the others'.
+    pub largest_drift: Real,
 }
 
 /// How often a [`NeighborList`] was kept without a whole build, since the run began.
@@ -692,12 +733,9 @@ impl NeighborList {
             let before = self.partner.len();
             let mut contacts = 0u64;
             let mut test = |j: usize, partner: &mut Vec<u32>| {
-                let touch = ra + r[j];
-                let reach = touch + skin + max_drift;
-                let d2 = norm2(sub(x[j], xa));
-                if d2 < reach * reach {
+                if let Some(touching) = appended_pair(xa, ra, x[j], r[j], skin + max_drift) {
                     partner.push(j as u32);
-                    contacts += u64::from(d2 < touch * touch);
+                    contacts += u64::from(touching);
                 }
             };
             // Earlier grains in build order whose reference lies within the widest reach
@@ -823,8 +861,8 @@ impl NeighborList {
     /// are re-sorted; a mover's row lists every other grain and the movers before it),
     /// ascending, so the list depends on the grains and their drifts only.
     ///
-    /// Returns how many grains were listed again, or None, changing nothing, when a build
-    /// is needed instead: the list cannot take such rows ([`NeighborList::can_append`]), no
+    /// Returns how many grains were listed again and the largest drift left, or None,
+    /// changing nothing, when a build is needed instead: the list cannot take such rows ([`NeighborList::can_append`]), no
     /// grain drifted past `threshold`, or more than one grain in `max_share` did (movers'
     /// reach is wider by D and their rows out of cell order: a build then pays).
     #[allow(clippy::too_many_arguments)]
@@ -838,20 +876,22 @@ impl NeighborList {
         threshold: Real,
         max_share: usize,
         team: &Team,
-    ) -> Option<usize> {
+    ) -> Option<Refreshed> {
         let n = state.len();
         if n == 0 || !self.can_append(n, grid) {
             return None;
         }
         let (x, r, id) = (&state.position[..], &state.radius[..], &state.id[..]);
+        let sc = &mut self.refresh;
         // 1. The movers, and the others' largest drift.
         let limit2 = threshold * threshold;
-        let mut is_mover = vec![false; n];
+        sc.is_mover.clear();
         let (mut movers, mut rest2): (usize, Real) = (0, 0.0);
         for i in 0..n {
             let d2 = norm2(sub(x[i], self.x_at_build[i]));
-            if d2 > limit2 {
-                is_mover[i] = true;
+            let far = d2 > limit2;
+            sc.is_mover.push(far);
+            if far {
                 movers += 1;
             } else {
                 rest2 = rest2.max(d2);
@@ -860,46 +900,53 @@ impl NeighborList {
         if movers == 0 || movers * max_share > n {
             return None;
         }
+        let is_mover = &sc.is_mover[..];
         let rest_drift = rest2.sqrt();
         // 2. The new references, and the grains' new order: by cell of the reference, as a
         // build sorts, stably (a counting sort over the cells from the lowest to the
         // highest that holds a grain).
-        let reference: Vec<Vec3> = (0..n)
-            .map(|i| {
-                if is_mover[i] {
-                    x[i]
-                } else {
-                    self.x_at_build[i]
-                }
-            })
-            .collect();
-        let cell: Vec<usize> = reference
-            .iter()
-            .map(|p| grid.index(grid.coord(*p)))
-            .collect();
-        let lowest = *cell.iter().min().expect("n > 0");
-        let highest = *cell.iter().max().expect("n > 0");
-        let mut fill = vec![0usize; highest - lowest + 2];
-        for &c in &cell {
-            fill[c - lowest + 1] += 1;
+        sc.reference.clear();
+        sc.reference.extend((0..n).map(|i| {
+            if is_mover[i] {
+                x[i]
+            } else {
+                self.x_at_build[i]
+            }
+        }));
+        self.cell.clear();
+        self.cell.extend(
+            sc.reference
+                .iter()
+                .map(|p| grid.index(grid.coord(*p)) as u32),
+        );
+        let cell = &self.cell[..];
+        let lowest = *cell.iter().min().expect("n > 0") as usize;
+        let highest = *cell.iter().max().expect("n > 0") as usize;
+        self.fill.clear();
+        self.fill.resize(highest - lowest + 2, 0);
+        for &c in cell {
+            self.fill[c as usize - lowest + 1] += 1;
         }
         for c in 0..highest - lowest {
-            fill[c + 1] += fill[c];
+            self.fill[c + 1] += self.fill[c];
         }
-        let mut order = std::mem::take(&mut self.order);
+        let order = &mut self.order;
         order.clear();
         order.resize(n, 0);
         for (i, &c) in cell.iter().enumerate() {
-            order[fill[c - lowest]] = i;
-            fill[c - lowest] += 1;
+            let slot = &mut self.fill[c as usize - lowest];
+            order[*slot as usize] = i;
+            *slot += 1;
         }
-        let mut new_index = vec![0u32; n];
+        let order = &self.order[..];
+        sc.new_index.clear();
+        sc.new_index.resize(n, 0);
         for (k, &i) in order.iter().enumerate() {
-            new_index[i] = k as u32;
+            sc.new_index[i] = k as u32;
         }
         // 3. The movers' live histories by (smaller id, larger id), seen from the smaller.
         let with_history = self.history.len() == self.partner.len();
-        let mut saved = Vec::new();
+        sc.saved.clear();
         if with_history {
             for i in 0..n {
                 for k in self.start[i] as usize..self.start[i + 1] as usize {
@@ -907,7 +954,7 @@ impl NeighborList {
                     let h = self.history[k];
                     if (is_mover[i] || is_mover[j]) && h != [0.0; 3] {
                         let (a, b) = (id[i], id[j]);
-                        saved.push(if a < b {
+                        sc.saved.push(if a < b {
                             ((a, b), h)
                         } else {
                             ((b, a), [-h[0], -h[1], -h[2]])
@@ -915,24 +962,26 @@ impl NeighborList {
                     }
                 }
             }
-            saved.sort_unstable_by_key(|e| e.0);
+            sc.saved.sort_unstable_by_key(|e| e.0);
         }
         // 4. The rows in the new order: an other's row less its pairs with movers; a
         // mover's row searched (every other grain, and the movers before it, within
         // r_a + r_j + skin + D now) in the cells its reach can hold.
-        let sorted_cell: Vec<usize> = order.iter().map(|&i| cell[i]).collect();
-        let mut start = Vec::with_capacity(n + 1);
-        let mut partner = Vec::with_capacity(self.partner.len());
-        let mut history = Vec::with_capacity(if with_history { self.partner.len() } else { 0 });
-        let mut cost = Vec::with_capacity(n);
-        let mut row: Vec<(u32, Vec3)> = Vec::new();
+        sc.sorted_cell.clear();
+        sc.sorted_cell.extend(order.iter().map(|&i| cell[i]));
+        let (start, partner) = (&mut sc.start, &mut sc.partner);
+        let (history, cost) = (&mut sc.history, &mut sc.cost);
+        start.clear();
+        partner.clear();
+        history.clear();
+        cost.clear();
         start.push(0u32);
         for (k, &i) in order.iter().enumerate() {
             if !is_mover[i] {
                 for p in self.start[i] as usize..self.start[i + 1] as usize {
                     let j = self.partner[p] as usize;
                     if !is_mover[j] {
-                        partner.push(new_index[j]);
+                        partner.push(sc.new_index[j]);
                         if with_history {
                             history.push(self.history[p]);
                         }
@@ -942,24 +991,24 @@ impl NeighborList {
             } else {
                 let (xi, ri) = (x[i], r[i]);
                 let widest = ri + r_max + skin + 2.0 * rest_drift;
+                let row = &mut sc.row;
                 row.clear();
                 let mut contacts = 0u64;
+                let saved = &sc.saved[..];
                 grid.sorted_ranges_near(
                     xi,
                     widest,
                     n,
-                    |c| sorted_cell[c],
+                    |c| sc.sorted_cell[c] as usize,
                     |range| {
                         for c in range {
                             let j = order[c];
                             if c == k || (is_mover[j] && c > k) {
                                 continue;
                             }
-                            let touch = ri + r[j];
-                            let reach = touch + skin + rest_drift;
-                            let d2 = norm2(sub(x[j], xi));
-                            if d2 < reach * reach {
-                                contacts += u64::from(d2 < touch * touch);
+                            let margin = skin + rest_drift;
+                            if let Some(touching) = appended_pair(xi, ri, x[j], r[j], margin) {
+                                contacts += u64::from(touching);
                                 let mut h = [0.0; 3];
                                 let key = (id[i].min(id[j]), id[i].max(id[j]));
                                 if let Ok(e) = saved.binary_search_by_key(&key, |e| e.0) {
@@ -994,9 +1043,10 @@ impl NeighborList {
         }
         // 5. The wall lists: the others keep theirs, the movers are tested from here.
         for (near, wall) in self.near_wall.iter_mut().zip(walls) {
-            let mut listed = vec![false; n];
+            sc.listed.clear();
+            sc.listed.resize(n, false);
             for &i in near.iter() {
-                listed[i as usize] = true;
+                sc.listed[i as usize] = true;
             }
             near.clear();
             near.extend((0..n).filter_map(|k| {
@@ -1004,22 +1054,25 @@ impl NeighborList {
                 let keep = if is_mover[i] {
                     wall.contact(x[i], r[i] + skin).is_some()
                 } else {
-                    listed[i]
+                    sc.listed[i]
                 };
                 keep.then_some(k as u32)
             }));
         }
         self.x_at_build.clear();
-        self.x_at_build.extend(order.iter().map(|&i| reference[i]));
-        self.start = start;
-        self.partner = partner;
-        self.history = history;
-        self.cost = cost;
-        state.reorder(&order, walls.len(), &mut self.spare, team);
-        self.order = order;
+        self.x_at_build
+            .extend(order.iter().map(|&i| sc.reference[i]));
+        std::mem::swap(&mut self.start, &mut sc.start);
+        std::mem::swap(&mut self.partner, &mut sc.partner);
+        std::mem::swap(&mut self.history, &mut sc.history);
+        std::mem::swap(&mut self.cost, &mut sc.cost);
+        state.reorder(&self.order, walls.len(), &mut self.spare, team);
         self.appended_from = n;
         self.upkeep.refreshes += 1;
-        Some(movers)
+        Some(Refreshed {
+            movers,
+            largest_drift: rest_drift,
+        })
     }
 
     /// Keep only the grains `keep` (ascending old indices; grain `keep[k]` becomes grain k)
@@ -1501,6 +1554,47 @@ mod tests {
         );
     }
 
+    /// The cells searched for a row listed between builds cover the whole reach: the
+    /// partner's reference placed at every tenth of a cell in turn, so that some lie just
+    /// across a cell face from a search box narrowed by the skin (which the cases above,
+    /// with both grains inside one cell's span, would not notice), an appended grain and a
+    /// refreshed mover each list a partner a skin and half a D away.
+    #[test]
+    fn rows_listed_between_builds_search_across_cell_faces() {
+        let (skin, r, drift) = (3e-4, 1e-3, 4e-5);
+        let cell = 2.0 * r + skin;
+        let grid = CellGrid::new([0.0; 3], [0.03, 0.01, 0.01], cell);
+        for tenth in 0..10 {
+            let x0 = 0.0092 + 0.1 * tenth as Real * cell;
+            // Appended.
+            let mut s = ParticleState::default();
+            s.push(0, [x0, 0.005, 0.005], [0.0; 3], r, 1000.0, 0);
+            let mut list = NeighborList::default();
+            list.rebuild(&mut s, &grid, skin, &[], true, &Team::new(1));
+            s.position[0][0] -= drift;
+            let x1 = s.position[0][0] + 2.0 * r + skin + 0.5 * drift;
+            s.push(1, [x1, 0.005, 0.005], [0.0; 3], r, 1000.0, 0);
+            assert_eq!(list.append(&s, 1, &grid, skin, r, &[], drift), 1, "x0 {x0}");
+            // Refreshed: a far grain jumps to the same place.
+            let mut s = ParticleState::default();
+            s.push(0, [x0, 0.005, 0.005], [0.0; 3], r, 1000.0, 0);
+            s.push(1, [0.025, 0.005, 0.005], [0.0; 3], r, 1000.0, 0);
+            let mut list = NeighborList::default();
+            list.rebuild(&mut s, &grid, skin, &[], true, &Team::new(1));
+            let (slow, fast) = if s.id[0] == 0 { (0, 1) } else { (1, 0) };
+            s.position[slow][0] -= drift;
+            s.position[fast][0] = s.position[slow][0] + 2.0 * r + skin + 0.5 * drift;
+            let refreshed =
+                list.refresh_movers(&mut s, &grid, skin, r, &[], skin / 4.0, 1, &Team::new(1));
+            assert_eq!(refreshed.map(|r| r.movers), Some(1), "x0 {x0}");
+            assert_eq!(
+                list.partner.len(),
+                1,
+                "x0 {x0}: the mover lists its partner"
+            );
+        }
+    }
+
     /// The drift D of the others in a refreshed mover's reach: as for an appended grain
     /// (above), an old grain drifted D (under the mover threshold) away before a far-drifted
     /// grain is listed again a skin and half a D from it; they then close on each other and
@@ -1521,7 +1615,7 @@ mod tests {
         s.position[fast][0] = s.position[slow][0] + 2.0 * r + skin + 0.5 * drift;
         let refreshed =
             list.refresh_movers(&mut s, &grid, skin, r, &[], threshold, 1, &Team::new(1));
-        assert_eq!(refreshed, Some(1));
+        assert_eq!(refreshed.map(|r| r.movers), Some(1));
         // The mover last; the slow grain moves 2 D back, the mover skin − 1.2 D towards it.
         let (slow, fast) = (0, 1);
         assert_eq!(s.id[fast], 1);
