@@ -306,33 +306,21 @@ impl CellGrid {
         }
     }
 
-    /// The grains of a list sorted by cell index (`cell_of(k)` the cell of entry k, k <
-    /// `len`) whose cells lie within `reach` (m) of `x` along every direction, as index
-    /// ranges in ascending order: one bisection per row of the box of cells (the fastest
-    /// direction's cells of a row are consecutive indices). Without periodic directions.
+    /// The grains of a list sorted by cell index whose cells lie within `reach` (m) of `x`
+    /// along every direction, as index ranges in ascending order, one per row of the box
+    /// of cells (the fastest direction's cells of a row are consecutive indices).
+    /// `first_at(c)`: the first entry whose cell is not below cell c (see
+    /// [`first_at_by_bisection`] when no table of cell starts is at hand). Without
+    /// periodic directions.
     fn sorted_ranges_near(
         &self,
         x: Vec3,
         reach: Real,
-        len: usize,
-        cell_of: impl Fn(usize) -> usize,
+        first_at: impl Fn(usize) -> usize,
         mut visit: impl FnMut(std::ops::Range<usize>),
     ) {
         let lo: [usize; 3] = std::array::from_fn(|k| self.coord_along(k, x[self.axes[k]] - reach));
         let hi: [usize; 3] = std::array::from_fn(|k| self.coord_along(k, x[self.axes[k]] + reach));
-        // First entry k of [0, len) whose cell is not below `cell`.
-        let first_at = |cell: usize| {
-            let (mut a, mut b) = (0, len);
-            while a < b {
-                let m = (a + b) / 2;
-                if cell_of(m) < cell {
-                    a = m + 1;
-                } else {
-                    b = m;
-                }
-            }
-            a
-        };
         for c2 in lo[2]..=hi[2] {
             for c1 in lo[1]..=hi[1] {
                 let from = first_at(self.index([lo[0], c1, c2]));
@@ -427,6 +415,22 @@ pub struct NeighborList {
     pub upkeep: ListUpkeep,
 }
 
+/// The first entry k of [0, `len`) whose cell (`cell_of(k)`, ascending in k) is not below
+/// `cell`, by bisection: [`CellGrid::sorted_ranges_near`]'s lookup over a sorted prefix
+/// without a table of cell starts.
+fn first_at_by_bisection(len: usize, cell_of: impl Fn(usize) -> usize, cell: usize) -> usize {
+    let (mut a, mut b) = (0, len);
+    while a < b {
+        let m = (a + b) / 2;
+        if cell_of(m) < cell {
+            a = m + 1;
+        } else {
+            b = m;
+        }
+    }
+    a
+}
+
 /// The pair test of a row listed between builds ([`NeighborList::append`],
 /// [`NeighborList::refresh_movers`]): grains a and j are listed when closer than
 /// r_a + r_j + `margin` (the skin plus the others' largest drift D); Some(touching) then.
@@ -437,16 +441,15 @@ fn appended_pair(xa: Vec3, ra: Real, xj: Vec3, rj: Real, margin: Real) -> Option
     (d2 < reach * reach).then_some(d2 < touch * touch)
 }
 
-/// Scratch of [`NeighborList::refresh_movers`]: per grain the movers, the new references,
-/// the new index and the cell of the k-th grain in the new order; the movers' saved
-/// histories and a row being searched; the wall flags; and the new list's columns, swapped
-/// with the list's own (so each refresh reuses the previous list's memory).
+/// Scratch of [`NeighborList::refresh_movers`]: per grain whether it moved far, its new
+/// reference and its new index; the movers' saved histories and a row being searched; the
+/// wall flags; and the new list's columns, swapped with the list's own (so each refresh
+/// reuses the previous list's memory).
 #[derive(Debug, Clone, Default)]
 struct RefreshScratch {
     is_mover: Vec<bool>,
     reference: Vec<Vec3>,
     new_index: Vec<u32>,
-    sorted_cell: Vec<u32>,
     saved: Vec<((u64, u64), Vec3)>,
     row: Vec<(u32, Vec3)>,
     listed: Vec<bool>,
@@ -745,8 +748,7 @@ impl NeighborList {
             grid.sorted_ranges_near(
                 xa,
                 widest,
-                sorted.len(),
-                |k| cell(&sorted[k]),
+                |c| first_at_by_bisection(sorted.len(), |k| cell(&sorted[k]), c),
                 |range| range.for_each(|j| test(j, &mut self.partner)),
             );
             (self.appended_from..a).for_each(|j| test(j, &mut self.partner));
@@ -967,8 +969,18 @@ impl NeighborList {
         // 4. The rows in the new order: an other's row less its pairs with movers; a
         // mover's row searched (every other grain, and the movers before it, within
         // r_a + r_j + skin + D now) in the cells its reach can hold.
-        sc.sorted_cell.clear();
-        sc.sorted_cell.extend(order.iter().map(|&i| cell[i]));
+        // (After the placement above, fill[c − lowest] is where cell c ends in the new
+        // order, i.e. where cell c + 1 starts.)
+        let cell_end = &self.fill[..];
+        let first_in_new_order = |c: usize| {
+            if c <= lowest {
+                0
+            } else if c > highest {
+                n
+            } else {
+                cell_end[c - 1 - lowest] as usize
+            }
+        };
         let (start, partner) = (&mut sc.start, &mut sc.partner);
         let (history, cost) = (&mut sc.history, &mut sc.cost);
         start.clear();
@@ -995,35 +1007,29 @@ impl NeighborList {
                 row.clear();
                 let mut contacts = 0u64;
                 let saved = &sc.saved[..];
-                grid.sorted_ranges_near(
-                    xi,
-                    widest,
-                    n,
-                    |c| sc.sorted_cell[c] as usize,
-                    |range| {
-                        for c in range {
-                            let j = order[c];
-                            if c == k || (is_mover[j] && c > k) {
-                                continue;
-                            }
-                            let margin = skin + rest_drift;
-                            if let Some(touching) = appended_pair(xi, ri, x[j], r[j], margin) {
-                                contacts += u64::from(touching);
-                                let mut h = [0.0; 3];
-                                let key = (id[i].min(id[j]), id[i].max(id[j]));
-                                if let Ok(e) = saved.binary_search_by_key(&key, |e| e.0) {
-                                    let s = saved[e].1;
-                                    h = if id[i] == key.0 {
-                                        s
-                                    } else {
-                                        [-s[0], -s[1], -s[2]]
-                                    };
-                                }
-                                row.push((c as u32, h));
-                            }
+                grid.sorted_ranges_near(xi, widest, first_in_new_order, |range| {
+                    for c in range {
+                        let j = order[c];
+                        if c == k || (is_mover[j] && c > k) {
+                            continue;
                         }
-                    },
-                );
+                        let margin = skin + rest_drift;
+                        if let Some(touching) = appended_pair(xi, ri, x[j], r[j], margin) {
+                            contacts += u64::from(touching);
+                            let mut h = [0.0; 3];
+                            let key = (id[i].min(id[j]), id[i].max(id[j]));
+                            if let Ok(e) = saved.binary_search_by_key(&key, |e| e.0) {
+                                let s = saved[e].1;
+                                h = if id[i] == key.0 {
+                                    s
+                                } else {
+                                    [-s[0], -s[1], -s[2]]
+                                };
+                            }
+                            row.push((c as u32, h));
+                        }
+                    }
+                });
                 row.sort_unstable_by_key(|e| e.0);
                 partner.extend(row.iter().map(|e| e.0));
                 if with_history {
