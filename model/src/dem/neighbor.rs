@@ -298,12 +298,10 @@ impl CellGrid {
     #[inline(always)]
     fn coord_along(&self, k: usize, v: Real) -> usize {
         let a = self.axes[k];
-        let f = ((v - self.lo[a]) * self.inv_cell).floor();
-        if f <= 0.0 || f.is_nan() {
-            0
-        } else {
-            (f as usize).min(self.dims[k] - 1)
-        }
+        // The cast truncates, which is the floor for the non-negative, and saturates: a
+        // negative or NaN coordinate gives 0 (without a call to libm's floor: a build asks
+        // this for every grain).
+        (((v - self.lo[a]) * self.inv_cell) as usize).min(self.dims[k] - 1)
     }
 
     /// The grains of a list sorted by cell index whose cells lie within `reach` (m) of `x`
