@@ -534,7 +534,8 @@ fn a_resumed_conveyor_run_is_the_uninterrupted_run_bit_for_bit() {
 /// format 1: `tests/scenes/format1/checkpoint_format1.pfc`, the vertical case at 0.01 s,
 /// written by build 41c6c18) is still read. Resumed, the run goes on and its summary leaves
 /// the counts out (what they were before the resume is unknown: not reported as the part
-/// since); started from with `--from`, the counts are the new run's own.
+/// since), also when resumed again from its own later checkpoint; started from with
+/// `--from`, the counts are the new run's own.
 #[test]
 fn a_format_1_checkpoint_is_resumed_and_started_from() {
     let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/scenes/format1");
@@ -563,6 +564,21 @@ fn a_format_1_checkpoint_is_resumed_and_started_from() {
         assert!(
             s.get(key).is_none(),
             "{key} reported after a format-1 resume: {s}"
+        );
+    }
+    // Resumed once more, from its own checkpoint at 0.03 s (this build's format): still
+    // unknown, not the part since the first resume.
+    let (code, text) = run(&scene, &parts, "0.04", &sets, &resume);
+    assert_eq!(code, 0, "{text}");
+    let s = read_summary(&parts);
+    assert!(
+        (s["simulated_time_s"].as_f64().unwrap() - 0.04).abs() < 1e-9,
+        "{s}"
+    );
+    for key in ["neighbor_refreshes", "neighbor_appends"] {
+        assert!(
+            s.get(key).is_none(),
+            "{key} reported after a second resume: {s}"
         );
     }
 

@@ -17,9 +17,12 @@ use crate::rng::Rng;
 use crate::{Real, Vec3};
 
 /// Bumped whenever [`Saved`] or what follows it changes: an older checkpoint is refused,
-/// not misread. Format 2 writes the list's upkeep counts after [`Saved`]; format 1
-/// (without them) is still read, the counts then unknown before the resume.
-const FORMAT: u32 = 2;
+/// not misread. Format 3 writes the list's upkeep counts after [`Saved`], as an option
+/// (None: unknown since a resume from a checkpoint without them, so that they stay left
+/// out however often the run is resumed again). Format 1 (without them) is still read,
+/// and so is format 2 (the counts alone, written by development builds that did not keep
+/// whether they covered the whole run: taken as unknown).
+const FORMAT: u32 = 3;
 /// The oldest format this build reads.
 const OLDEST_READ: u32 = 1;
 
@@ -75,7 +78,8 @@ pub(super) fn save(dem: &NativeDem) -> Result<Vec<u8>, BackendError> {
     };
     let mut bytes = postcard::to_allocvec(&saved)
         .map_err(|e| refused(format!("cannot encode the grains: {e}")))?;
-    let upkeep = postcard::to_allocvec(&dem.nlist.upkeep)
+    let counts = (!dem.upkeep_unknown_before_resume).then_some(dem.nlist.upkeep);
+    let upkeep = postcard::to_allocvec(&counts)
         .map_err(|e| refused(format!("cannot encode the list's upkeep counts: {e}")))?;
     bytes.extend(upkeep);
     // The conveyor's column follows as a trailer (checkpoints of runs without one, and
@@ -124,12 +128,16 @@ fn restore_grains(dem: &mut NativeDem, bytes: &[u8]) -> Result<Option<Conveyor>,
             s.format
         )));
     }
-    let (upkeep, trailer) = if s.format >= 2 {
-        let (u, t): (ListUpkeep, &[u8]) = postcard::take_from_bytes(rest)
-            .map_err(|e| refused(format!("the list's upkeep counts cannot be read: {e}")))?;
-        (Some(u), t)
-    } else {
-        (None, rest)
+    let unreadable =
+        |e: postcard::Error| refused(format!("the list's upkeep counts cannot be read: {e}"));
+    let (upkeep, trailer) = match s.format {
+        1 => (None, rest),
+        2 => {
+            let (_, t): (ListUpkeep, &[u8]) =
+                postcard::take_from_bytes(rest).map_err(unreadable)?;
+            (None, t)
+        }
+        _ => postcard::take_from_bytes::<Option<ListUpkeep>>(rest).map_err(unreadable)?,
     };
     let column = if trailer.is_empty() {
         None
