@@ -748,6 +748,7 @@ impl NativeDem {
             self.step += 1;
             let t1 = Instant::now();
             let mut t2 = t1;
+            let mut refresh_refused = false;
             if self.step.is_multiple_of(FEED_STRIDE)
                 && (self.cfg.inlet.is_some() || self.cfg.removes_grains)
             {
@@ -759,6 +760,9 @@ impl NativeDem {
                     if let Some(d) = self.refresh(team) {
                         self.predict_velocities(true);
                         (moved_far, largest_drift) = (false, d);
+                    } else {
+                        // (Refused at these positions: not asked again below.)
+                        refresh_refused = true;
                     }
                     t2 = Instant::now();
                     self.timer.add("neighbor", (t2 - t1).as_secs_f64());
@@ -772,7 +776,7 @@ impl NativeDem {
             self.timer.add("inlet_outlet", (t3 - t2).as_secs_f64());
             let t2 = t3;
             if self.rebuild_pending || moved_far {
-                if self.rebuild_pending || self.refresh(team).is_none() {
+                if self.rebuild_pending || refresh_refused || self.refresh(team).is_none() {
                     self.rebuild(team);
                 }
                 self.predict_velocities(true);
